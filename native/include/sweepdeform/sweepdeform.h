@@ -1,0 +1,192 @@
+/*
+ * sweepdeform.h — the one public header of libsweepdeform.
+ *
+ * Sweep-based human deformation (Hyun et al. 2005) behind a small C ABI.
+ *
+ * Conventions
+ *  - Every function returns an sd_status; on failure the thread-local message from
+ *    sd_last_error() says what was wrong, and no output or handle was changed.
+ *  - The caller owns every array it passes. Arrays are tightly packed, row-major per
+ *    element: positions are #V*3 floats (x,y,z), matrices are 16 floats in COLUMN-major
+ *    order (the layout of GLM, OpenGL and Blender's Matrix transposed rows), quaternions
+ *    are 4 floats (w, x, y, z).
+ *  - All geometry (mesh, bones, key ellipses, poses) lives in one common space, the
+ *    "armature space" of the character; units are whatever the caller uses (metres in
+ *    Blender).
+ *  - No C++ exception, assert or abort crosses this boundary. Inputs are validated:
+ *    counts, indices in range, finite numbers, unit quaternions (|q| within 1e-3 of 1),
+ *    half-axes > 0.
+ *  - Handles are opaque. A handle may be used from one thread at a time; different
+ *    handles may be used concurrently.
+ */
+#ifndef SWEEPDEFORM_H
+#define SWEEPDEFORM_H
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32)
+#define SD_API __declspec(dllexport)
+#else
+#define SD_API __attribute__((visibility("default")))
+#endif
+
+/* Bumped whenever a signature or a struct layout of this header changes. */
+#define SD_ABI_VERSION 1
+
+typedef enum sd_status {
+    SD_OK = 0,
+    SD_ERR_INVALID_ARGUMENT = 1, /* a count, index, number or pointer was invalid */
+    SD_ERR_CORRUPT_DATA = 2,     /* a blob failed its magic, version, size or checksum check */
+    SD_ERR_OUT_OF_MEMORY = 3,
+    SD_ERR_MISMATCH = 4,         /* e.g. a binding used with another rig, wrong vertex count */
+    SD_ERR_INTERNAL = 5          /* a bug: please report the message */
+} sd_status;
+
+typedef struct sd_rig sd_rig;           /* skeleton + sweeps of key ellipses (rest pose) */
+typedef struct sd_binding sd_binding;   /* per-vertex binding of one mesh to one rig */
+typedef struct sd_deformer sd_deformer; /* a rig + binding + per-frame state */
+
+/* ---- library ---------------------------------------------------------------------- */
+
+/* SD_ABI_VERSION of the loaded library; a caller must refuse a library of another version. */
+SD_API int32_t sd_abi_version(void);
+/* Library version string, e.g. "0.1.0". Static storage. */
+SD_API const char* sd_library_version(void);
+/* Message of the last failed call on this thread ("" if none). Valid until the next call. */
+SD_API const char* sd_last_error(void);
+
+/* ---- rig ---------------------------------------------------------------------------- */
+
+/*
+ * Creates a rig from a rest skeleton.
+ *  bone_count   B >= 1
+ *  parents      #B, parent index < own index, or -1 for a root
+ *  rest         #B*16, each bone's rest (bind) matrix in armature space, column-major;
+ *               the bone's deformation in a pose P is P * rest^-1
+ *  heads, tails #B*3, bone head and tail in armature space (tail != head)
+ */
+SD_API sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest,
+                               const float* heads, const float* tails, sd_rig** out_rig);
+SD_API void sd_rig_destroy(sd_rig* rig);
+SD_API sd_status sd_rig_clone(const sd_rig* rig, sd_rig** out_rig);
+
+/*
+ * Adds one sweep through K >= 2 key ellipses, ordered from the body outwards
+ * (e.g. shoulder, ..., elbow, ..., wrist). Per key k:
+ *  centers[3k..]       ellipse center (rest pose)
+ *  orientations[4k..]  unit quaternion (w,x,y,z); columns of its rotation matrix are the
+ *                      major-axis direction, the minor-axis direction and the plane normal,
+ *                      which must point along the sweep (towards key k+1)
+ *  half_axes[2k..]     a (along the first column) and b (second column), > 0
+ *  bones[k]            the bone the key follows: for an intermediate key the link it sits on,
+ *                      for a joint key the lower link (child) of the joint
+ *  joint_parents[k]    for a joint key the upper link (parent bone), else -1
+ *  fractions[2k..]     (swing, twist) in [0,1] for joint keys: the key turns by this fraction
+ *                      of the child's swing and twist relative to the parent (0.5, 0.5 bisects
+ *                      the joint); ignored for intermediate keys
+ * Key centers must be distinct (chord length > 0). out_sweep_index may be NULL.
+ */
+SD_API sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers,
+                                  const float* orientations, const float* half_axes,
+                                  const int32_t* bones, const int32_t* joint_parents,
+                                  const float* fractions, int32_t* out_sweep_index);
+SD_API int32_t sd_rig_bone_count(const sd_rig* rig);
+SD_API int32_t sd_rig_sweep_count(const sd_rig* rig);
+/* Number of key ellipses of a sweep, or -1 (and an error) for a bad index. */
+SD_API int32_t sd_rig_key_count(const sd_rig* rig, int32_t sweep);
+/* Reads the key ellipses of a sweep into caller arrays sized as in sd_rig_add_sweep (any may be NULL). */
+SD_API sd_status sd_rig_get_keys(const sd_rig* rig, int32_t sweep, float* centers,
+                                 float* orientations, float* half_axes, int32_t* bones,
+                                 int32_t* joint_parents, float* fractions);
+/* Rest volume of a sweep, ∫ π a b <N, C'> dt, in units^3. */
+SD_API sd_status sd_rig_sweep_rest_volume(const sd_rig* rig, int32_t sweep, double* out_volume);
+
+/*
+ * Evaluates a sweep of the rig at its rest pose at `count` parameters u in [0, 1]
+ * (0 = first key, 1 = last key, uniform in the spans between keys). Any output may be NULL.
+ *  centers   #count*3  C(t)       tangents  #count*3  C'(t) with respect to t = arc-like
+ *  normals   #count*3  N(t)       rotations #count*9  R(t) column-major
+ *  half_axes #count*2  a(t), b(t)
+ */
+SD_API sd_status sd_rig_evaluate_sweep(const sd_rig* rig, int32_t sweep, int32_t count,
+                                       const float* u, float* centers, float* tangents,
+                                       float* normals, float* rotations, float* half_axes);
+
+/* Versioned, checksummed byte blob of the rig. Call with buffer NULL to get the size. */
+SD_API sd_status sd_rig_serialize(const sd_rig* rig, uint8_t* buffer, int64_t capacity,
+                                  int64_t* out_size);
+/* Rebuilds a rig from a blob; a corrupt or truncated blob is SD_ERR_CORRUPT_DATA. */
+SD_API sd_status sd_rig_deserialize(const uint8_t* buffer, int64_t size, sd_rig** out_rig);
+
+/* ---- binding ------------------------------------------------------------------------ */
+
+/*
+ * Binds the rest mesh to the rig (Sect. 3.3–3.5).
+ *  positions     #V*3 rest positions in armature space
+ *  sweep_slots   S >= 0 sweep influences per vertex; sweep_ids #V*S (-1 = unused slot),
+ *                sweep_weights #V*S
+ *  bone_slots    K >= 0 bone influences per vertex (plain linear blend skinning for parts on
+ *                no sweep: hands, feet, head); bone_ids #V*K (-1 unused), bone_weights #V*K
+ * For every vertex the weights must be >= 0 with a positive sum; they are normalised.
+ */
+SD_API sd_status sd_bind(const sd_rig* rig, int32_t vertex_count, const float* positions,
+                         int32_t sweep_slots, const int32_t* sweep_ids, const float* sweep_weights,
+                         int32_t bone_slots, const int32_t* bone_ids, const float* bone_weights,
+                         sd_binding** out_binding);
+SD_API void sd_binding_destroy(sd_binding* binding);
+SD_API int32_t sd_binding_vertex_count(const sd_binding* binding);
+/*
+ * Per-vertex binding parameters of the heaviest sweep influence, for display and tests:
+ * sweep #V (-1 = bone-driven only), t #V in [0, 1] along the sweep, theta #V radians.
+ */
+SD_API sd_status sd_binding_get_parameters(const sd_binding* binding, int32_t vertex_count,
+                                           int32_t* sweep, float* t, float* theta);
+SD_API sd_status sd_binding_serialize(const sd_binding* binding, uint8_t* buffer,
+                                      int64_t capacity, int64_t* out_size);
+SD_API sd_status sd_binding_deserialize(const uint8_t* buffer, int64_t size,
+                                        sd_binding** out_binding);
+
+/* ---- deformation -------------------------------------------------------------------- */
+
+/* A deformer keeps its own copies of the rig and the binding (which must match). */
+SD_API sd_status sd_deformer_create(const sd_rig* rig, const sd_binding* binding,
+                                    sd_deformer** out_deformer);
+SD_API void sd_deformer_destroy(sd_deformer* deformer);
+
+/* Volume preservation (Sect. 4.4): on by default, strength 1 (0 = off, 1 = full). */
+SD_API sd_status sd_deformer_set_volume_preservation(sd_deformer* deformer, int32_t enabled,
+                                                     float strength);
+/*
+ * Per-sweep volume the controller subtracts from the rest volume: its target becomes
+ * V0 - offset (the anatomical effects' I_C). offsets #S, units^3.
+ */
+SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t sweep_count,
+                                                const float* offsets);
+
+/*
+ * Deforms one frame.
+ *  pose           #B*16 each bone's posed matrix in armature space (Blender: pose_bone.matrix)
+ *  out_positions  #V*3 written with the deformed positions
+ * Parallel over vertices; the result does not depend on the number of threads.
+ */
+SD_API sd_status sd_deform(sd_deformer* deformer, int32_t bone_count, const float* pose,
+                           int32_t vertex_count, float* out_positions);
+
+/*
+ * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.
+ * Each array #S (any may be NULL), units^3.
+ */
+SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sweep_count,
+                                         double* rest, double* before, double* after);
+/* Controller iterations used by each sweep in the last frame (#S). */
+SD_API sd_status sd_deformer_get_volume_iterations(const sd_deformer* deformer,
+                                                   int32_t sweep_count, int32_t* iterations);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* SWEEPDEFORM_H */

@@ -1,0 +1,380 @@
+// The C ABI: validation, status codes, the thread-local error message. No exception
+// leaves this file.
+#include "sweepdeform/sweepdeform.h"
+
+#include "bind.h"
+#include "deform.h"
+#include "rig.h"
+#include "serialize.h"
+
+#include <cmath>
+#include <memory>
+#include <new>
+#include <string>
+
+struct sd_rig {
+    sd::Rig rig;
+};
+struct sd_binding {
+    sd::Binding binding;
+};
+struct sd_deformer {
+    std::unique_ptr<sd::Deformer> deformer;
+};
+
+namespace {
+
+thread_local std::string g_last_error;
+
+sd_status fail(sd_status status, std::string message) {
+    g_last_error = std::move(message);
+    return status;
+}
+
+/// Runs f, mapping every exception to a status and a message.
+template <class F>
+sd_status guarded(const char* function, F&& f, sd_status invalid_input = SD_ERR_INVALID_ARGUMENT) {
+    try {
+        g_last_error.clear();
+        return f();
+    } catch (const sd::InvalidInput& e) {
+        return fail(invalid_input, std::string(function) + ": " + e.what());
+    } catch (const sd::CorruptData& e) {
+        return fail(SD_ERR_CORRUPT_DATA, std::string(function) + ": " + e.what());
+    } catch (const std::bad_alloc&) {
+        return fail(SD_ERR_OUT_OF_MEMORY, std::string(function) + ": out of memory");
+    } catch (const std::exception& e) {
+        return fail(SD_ERR_INTERNAL, std::string(function) + ": internal error: " + e.what());
+    } catch (...) {
+        return fail(SD_ERR_INTERNAL, std::string(function) + ": unknown internal error");
+    }
+}
+
+#define SD_REQUIRE(cond, message) \
+    do { \
+        if (!(cond)) throw sd::InvalidInput(message); \
+    } while (0)
+
+std::vector<sd::KeyEllipse> keys_from_arrays(int32_t K, const float* centers, const float* orientations,
+                                             const float* half_axes, const int32_t* bones,
+                                             const int32_t* joint_parents, const float* fractions) {
+    SD_REQUIRE(K >= 2 && K <= 256, "key_count must be in 2..256");
+    SD_REQUIRE(centers && orientations && half_axes && bones && joint_parents && fractions,
+               "a key ellipse array is NULL");
+    std::vector<sd::KeyEllipse> keys(K);
+    for (int k = 0; k < K; ++k) {
+        sd::KeyEllipse& e = keys[k];
+        e.center = sd::dvec3(centers[3 * k], centers[3 * k + 1], centers[3 * k + 2]);
+        e.orientation = sd::dquat(orientations[4 * k], orientations[4 * k + 1],
+                                  orientations[4 * k + 2], orientations[4 * k + 3]);
+        e.a = half_axes[2 * k];
+        e.b = half_axes[2 * k + 1];
+        e.bone = bones[k];
+        e.joint_parent = joint_parents[k];
+        e.swing_fraction = fractions[2 * k];
+        e.twist_fraction = fractions[2 * k + 1];
+    }
+    return keys;
+}
+
+sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, int64_t capacity,
+                     int64_t* out_size) {
+    SD_REQUIRE(out_size, "out_size is NULL");
+    *out_size = static_cast<int64_t>(blob.size());
+    if (!buffer) return SD_OK;
+    if (capacity < static_cast<int64_t>(blob.size()))
+        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) +
+                                                 " is smaller than the blob (" +
+                                                 std::to_string(blob.size()) + " bytes)");
+    std::copy(blob.begin(), blob.end(), buffer);
+    return SD_OK;
+}
+
+const sd::Sweep& sweep_of(const sd_rig* rig, int32_t sweep) {
+    SD_REQUIRE(rig, "rig is NULL");
+    SD_REQUIRE(sweep >= 0 && sweep < static_cast<int32_t>(rig->rig.sweeps.size()),
+               "sweep index " + std::to_string(sweep) + " is out of range");
+    return rig->rig.sweeps[sweep];
+}
+
+}  // namespace
+
+extern "C" {
+
+int32_t sd_abi_version(void) { return SD_ABI_VERSION; }
+const char* sd_library_version(void) { return SWEEPDEFORM_VERSION; }
+const char* sd_last_error(void) { return g_last_error.c_str(); }
+
+sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest,
+                        const float* heads, const float* tails, sd_rig** out_rig) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(out_rig, "out_rig is NULL");
+        auto rig = std::make_unique<sd_rig>();
+        rig->rig.skeleton = sd::Skeleton::from_arrays(bone_count, parents, rest, heads, tails);
+        *out_rig = rig.release();
+        return SD_OK;
+    });
+}
+
+void sd_rig_destroy(sd_rig* rig) { delete rig; }
+
+sd_status sd_rig_clone(const sd_rig* rig, sd_rig** out_rig) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rig && out_rig, "rig or out_rig is NULL");
+        *out_rig = new sd_rig(*rig);
+        return SD_OK;
+    });
+}
+
+sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers,
+                           const float* orientations, const float* half_axes,
+                           const int32_t* bones, const int32_t* joint_parents,
+                           const float* fractions, int32_t* out_sweep_index) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rig, "rig is NULL");
+        const int index = rig->rig.add_sweep(keys_from_arrays(
+            key_count, centers, orientations, half_axes, bones, joint_parents, fractions));
+        if (out_sweep_index) *out_sweep_index = index;
+        return SD_OK;
+    });
+}
+
+int32_t sd_rig_bone_count(const sd_rig* rig) { return rig ? rig->rig.skeleton.bone_count() : -1; }
+int32_t sd_rig_sweep_count(const sd_rig* rig) {
+    return rig ? static_cast<int32_t>(rig->rig.sweeps.size()) : -1;
+}
+
+int32_t sd_rig_key_count(const sd_rig* rig, int32_t sweep) {
+    int32_t count = -1;
+    guarded(__func__, [&] {
+        count = sweep_of(rig, sweep).key_count();
+        return SD_OK;
+    });
+    return count;
+}
+
+sd_status sd_rig_get_keys(const sd_rig* rig, int32_t sweep, float* centers, float* orientations,
+                          float* half_axes, int32_t* bones, int32_t* joint_parents,
+                          float* fractions) {
+    return guarded(__func__, [&] {
+        const sd::Sweep& s = sweep_of(rig, sweep);
+        for (int k = 0; k < s.key_count(); ++k) {
+            const sd::KeyEllipse& e = s.keys[k];
+            for (int i = 0; i < 3 && centers; ++i) centers[3 * k + i] = static_cast<float>(e.center[i]);
+            if (orientations) {
+                const double q[4] = {e.orientation.w, e.orientation.x, e.orientation.y, e.orientation.z};
+                for (int i = 0; i < 4; ++i) orientations[4 * k + i] = static_cast<float>(q[i]);
+            }
+            if (half_axes) {
+                half_axes[2 * k] = static_cast<float>(e.a);
+                half_axes[2 * k + 1] = static_cast<float>(e.b);
+            }
+            if (bones) bones[k] = e.bone;
+            if (joint_parents) joint_parents[k] = e.joint_parent;
+            if (fractions) {
+                fractions[2 * k] = static_cast<float>(e.swing_fraction);
+                fractions[2 * k + 1] = static_cast<float>(e.twist_fraction);
+            }
+        }
+        return SD_OK;
+    });
+}
+
+sd_status sd_rig_sweep_rest_volume(const sd_rig* rig, int32_t sweep, double* out_volume) {
+    return guarded(__func__, [&] {
+        const sd::Sweep& s = sweep_of(rig, sweep);
+        SD_REQUIRE(out_volume, "out_volume is NULL");
+        *out_volume = s.rest_volume;
+        return SD_OK;
+    });
+}
+
+sd_status sd_rig_evaluate_sweep(const sd_rig* rig, int32_t sweep, int32_t count, const float* u,
+                                float* centers, float* tangents, float* normals, float* rotations,
+                                float* half_axes) {
+    return guarded(__func__, [&] {
+        const sd::Sweep& s = sweep_of(rig, sweep);
+        SD_REQUIRE(count >= 0 && count <= 100'000'000, "count is out of range");
+        SD_REQUIRE(u || count == 0, "u is NULL");
+        for (int i = 0; i < count; ++i)
+            SD_REQUIRE(std::isfinite(u[i]) && u[i] >= 0.0f && u[i] <= 1.0f,
+                       "u[" + std::to_string(i) + "] is not in [0, 1]");
+        const sd::SweepGeometry& g = s.rest_geometry;
+        for (int i = 0; i < count; ++i) {
+            int span;
+            double uu;
+            sd::split_parameter(g.span_count(), u[i], &span, &uu);
+            const sd::dvec3 c = g.center(span, uu), t = g.tangent(span, uu);
+            const sd::dmat3 r = g.rotation(span, uu);
+            const sd::dvec2 ab = s.rest_half_axes.at(span, uu);
+            for (int j = 0; j < 3; ++j) {
+                if (centers) centers[3 * i + j] = static_cast<float>(c[j]);
+                if (tangents) tangents[3 * i + j] = static_cast<float>(t[j]);
+                if (normals) normals[3 * i + j] = static_cast<float>(r[2][j]);
+            }
+            for (int j = 0; rotations && j < 9; ++j) rotations[9 * i + j] = static_cast<float>(r[j / 3][j % 3]);
+            if (half_axes) {
+                half_axes[2 * i] = static_cast<float>(ab.x);
+                half_axes[2 * i + 1] = static_cast<float>(ab.y);
+            }
+        }
+        return SD_OK;
+    });
+}
+
+sd_status sd_rig_serialize(const sd_rig* rig, uint8_t* buffer, int64_t capacity, int64_t* out_size) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rig, "rig is NULL");
+        return write_blob(sd::serialize_rig(rig->rig), buffer, capacity, out_size);
+    });
+}
+
+sd_status sd_rig_deserialize(const uint8_t* buffer, int64_t size, sd_rig** out_rig) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(out_rig, "out_rig is NULL");
+        if (size < 0) throw sd::CorruptData("negative blob size");
+        auto rig = std::make_unique<sd_rig>();
+        rig->rig = sd::deserialize_rig(buffer, static_cast<size_t>(size));
+        *out_rig = rig.release();
+        return SD_OK;
+    }, SD_ERR_CORRUPT_DATA);
+}
+
+sd_status sd_bind(const sd_rig* rig, int32_t vertex_count, const float* positions,
+                  int32_t sweep_slots, const int32_t* sweep_ids, const float* sweep_weights,
+                  int32_t bone_slots, const int32_t* bone_ids, const float* bone_weights,
+                  sd_binding** out_binding) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rig && out_binding, "rig or out_binding is NULL");
+        auto b = std::make_unique<sd_binding>();
+        b->binding = sd::bind_vertices(rig->rig, vertex_count, positions, sweep_slots, sweep_ids,
+                                       sweep_weights, bone_slots, bone_ids, bone_weights);
+        *out_binding = b.release();
+        return SD_OK;
+    });
+}
+
+void sd_binding_destroy(sd_binding* binding) { delete binding; }
+
+int32_t sd_binding_vertex_count(const sd_binding* binding) {
+    return binding ? binding->binding.vertex_count() : -1;
+}
+
+sd_status sd_binding_get_parameters(const sd_binding* binding, int32_t vertex_count,
+                                    int32_t* sweep, float* t, float* theta) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(binding, "binding is NULL");
+        const sd::Binding& b = binding->binding;
+        if (vertex_count != b.vertex_count())
+            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
+                                             " differs from the binding's " +
+                                             std::to_string(b.vertex_count()));
+        for (int v = 0; v < b.vertex_count(); ++v) {
+            const sd::SweepInfluence* best = nullptr;
+            for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i)
+                if (!best || b.sweep_influences[i].weight > best->weight) best = &b.sweep_influences[i];
+            if (sweep) sweep[v] = best ? best->sweep : -1;
+            // t as a global parameter in [0, 1], uniform per span, like sd_rig_evaluate_sweep.
+            if (t) t[v] = best ? static_cast<float>(best->span) + best->u : 0.0f;
+            if (theta) theta[v] = best ? std::atan2(best->sin_theta, best->cos_theta) : 0.0f;
+        }
+        return SD_OK;
+    });
+}
+
+sd_status sd_binding_serialize(const sd_binding* binding, uint8_t* buffer, int64_t capacity,
+                               int64_t* out_size) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(binding, "binding is NULL");
+        return write_blob(sd::serialize_binding(binding->binding), buffer, capacity, out_size);
+    });
+}
+
+sd_status sd_binding_deserialize(const uint8_t* buffer, int64_t size, sd_binding** out_binding) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(out_binding, "out_binding is NULL");
+        if (size < 0) throw sd::CorruptData("negative blob size");
+        auto b = std::make_unique<sd_binding>();
+        b->binding = sd::deserialize_binding(buffer, static_cast<size_t>(size));
+        *out_binding = b.release();
+        return SD_OK;
+    }, SD_ERR_CORRUPT_DATA);
+}
+
+sd_status sd_deformer_create(const sd_rig* rig, const sd_binding* binding, sd_deformer** out) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rig && binding && out, "rig, binding or out_deformer is NULL");
+        if (binding->binding.rig_fingerprint != sd::rig_fingerprint(rig->rig))
+            return fail(SD_ERR_MISMATCH, "the binding was made for another rig; re-bind");
+        auto d = std::make_unique<sd_deformer>();
+        d->deformer = std::make_unique<sd::Deformer>(rig->rig, binding->binding);
+        *out = d.release();
+        return SD_OK;
+    });
+}
+
+void sd_deformer_destroy(sd_deformer* deformer) { delete deformer; }
+
+sd_status sd_deformer_set_volume_preservation(sd_deformer* d, int32_t enabled, float strength) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d, "deformer is NULL");
+        d->deformer->set_volume_preservation(enabled != 0, strength);
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_set_volume_offsets(sd_deformer* d, int32_t sweep_count, const float* offsets) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && offsets, "deformer or offsets is NULL");
+        if (sweep_count != static_cast<int32_t>(d->deformer->rig().sweeps.size()))
+            return fail(SD_ERR_MISMATCH, "sweep_count differs from the rig's");
+        d->deformer->set_volume_offsets(std::vector<double>(offsets, offsets + sweep_count));
+        return SD_OK;
+    });
+}
+
+sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
+                    float* out_positions) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
+        if (bone_count != d->deformer->rig().skeleton.bone_count())
+            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) +
+                                             " bones, the rig " +
+                                             std::to_string(d->deformer->rig().skeleton.bone_count()));
+        if (vertex_count != d->deformer->vertex_count())
+            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
+                                             " differs from the binding's " +
+                                             std::to_string(d->deformer->vertex_count()));
+        d->deformer->deform(pose, out_positions);
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, double* rest,
+                                  double* before, double* after) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d, "deformer is NULL");
+        const sd::Deformer& def = *d->deformer;
+        if (sweep_count != static_cast<int32_t>(def.rig().sweeps.size()))
+            return fail(SD_ERR_MISMATCH, "sweep_count differs from the rig's");
+        for (int s = 0; s < sweep_count; ++s) {
+            if (rest) rest[s] = def.rig().sweeps[s].rest_volume;
+            if (before) before[s] = def.volume_before[s];
+            if (after) after[s] = def.volume_after[s];
+        }
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_get_volume_iterations(const sd_deformer* d, int32_t sweep_count,
+                                            int32_t* iterations) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && iterations, "deformer or iterations is NULL");
+        if (sweep_count != static_cast<int32_t>(d->deformer->rig().sweeps.size()))
+            return fail(SD_ERR_MISMATCH, "sweep_count differs from the rig's");
+        for (int s = 0; s < sweep_count; ++s) iterations[s] = d->deformer->volume_iterations[s];
+        return SD_OK;
+    });
+}
+
+}  // extern "C"

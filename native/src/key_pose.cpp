@@ -1,0 +1,43 @@
+#include "key_pose.h"
+
+namespace sd {
+
+void swing_twist(const dquat& r, const dvec3& axis, dquat* swing, dquat* twist) {
+    const dvec3 v(r.x, r.y, r.z);
+    const dvec3 p = glm::dot(v, axis) * axis;
+    dquat t(r.w, p.x, p.y, p.z);
+    const double n = glm::length(t);
+    // A pure 180° swing has no defined twist; take none.
+    t = n > 1e-12 ? t / n : dquat(1, 0, 0, 0);
+    *twist = t;
+    *swing = r * glm::conjugate(t);
+}
+
+/// Fraction f of a rotation (slerp from identity along the short arc).
+static dquat fraction_of(const dquat& r, double f) {
+    const dquat q = r.w < 0.0 ? -r : r;
+    return glm::slerp(dquat(1, 0, 0, 0), q, f);
+}
+
+void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>& centers,
+               std::vector<dquat>& rotations) {
+    const int K = sweep.key_count();
+    centers.resize(K);
+    rotations.resize(K);
+    for (int k = 0; k < K; ++k) {
+        const KeyEllipse& e = sweep.keys[k];
+        centers[k] = dvec3(pose.deform[e.bone] * dvec4(e.center, 1.0));
+        if (!e.is_joint_key()) {
+            rotations[k] = pose.rotation[e.bone] * e.orientation;
+            continue;
+        }
+        const dquat& parent = pose.rotation[e.joint_parent];
+        const dquat relative = glm::conjugate(parent) * pose.rotation[e.bone];
+        dquat swing, twist;
+        swing_twist(relative, e.normal(), &swing, &twist);
+        rotations[k] = glm::normalize(parent * fraction_of(swing, e.swing_fraction) *
+                                      fraction_of(twist, e.twist_fraction) * e.orientation);
+    }
+}
+
+}  // namespace sd
