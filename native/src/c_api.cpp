@@ -6,54 +6,18 @@
 #include "deform.h"
 #include "rig.h"
 #include "serialize.h"
+#include "c_api_util.h"
 
 #include <cmath>
 #include <memory>
 #include <new>
 #include <string>
 
-struct sd_rig {
-    sd::Rig rig;
-};
-struct sd_binding {
-    sd::Binding binding;
-};
-struct sd_deformer {
-    std::unique_ptr<sd::Deformer> deformer;
-};
 
 namespace {
 
-thread_local std::string g_last_error;
-
-sd_status fail(sd_status status, std::string message) {
-    g_last_error = std::move(message);
-    return status;
-}
-
-/// Runs f, mapping every exception to a status and a message.
-template <class F>
-sd_status guarded(const char* function, F&& f, sd_status invalid_input = SD_ERR_INVALID_ARGUMENT) {
-    try {
-        g_last_error.clear();
-        return f();
-    } catch (const sd::InvalidInput& e) {
-        return fail(invalid_input, std::string(function) + ": " + e.what());
-    } catch (const sd::CorruptData& e) {
-        return fail(SD_ERR_CORRUPT_DATA, std::string(function) + ": " + e.what());
-    } catch (const std::bad_alloc&) {
-        return fail(SD_ERR_OUT_OF_MEMORY, std::string(function) + ": out of memory");
-    } catch (const std::exception& e) {
-        return fail(SD_ERR_INTERNAL, std::string(function) + ": internal error: " + e.what());
-    } catch (...) {
-        return fail(SD_ERR_INTERNAL, std::string(function) + ": unknown internal error");
-    }
-}
-
-#define SD_REQUIRE(cond, message) \
-    do { \
-        if (!(cond)) throw sd::InvalidInput(message); \
-    } while (0)
+using sd::abi::fail;
+using sd::abi::guarded;
 
 std::vector<sd::KeyEllipse> keys_from_arrays(int32_t K, const float* centers, const float* orientations,
                                              const float* half_axes, const int32_t* bones,
@@ -103,7 +67,7 @@ extern "C" {
 
 int32_t sd_abi_version(void) { return SD_ABI_VERSION; }
 const char* sd_library_version(void) { return SWEEPDEFORM_VERSION; }
-const char* sd_last_error(void) { return g_last_error.c_str(); }
+const char* sd_last_error(void) { return sd::abi::last_error().c_str(); }
 
 sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest,
                         const float* heads, const float* tails, sd_rig** out_rig) {
