@@ -53,10 +53,9 @@ Skeleton Skeleton::build(std::vector<int> parents, std::vector<dmat4> rest,
         throw InvalidInput("skeleton arrays differ in length");
     Skeleton s;
     for (int b = 0; b < count; ++b) {
-        if (parents[b] < -1 || parents[b] >= b)
+        if (parents[b] < -1 || parents[b] >= count || parents[b] == b)
             throw InvalidInput("bone " + std::to_string(b) + " has parent " +
-                               std::to_string(parents[b]) +
-                               "; parents must come before their children (or be -1)");
+                               std::to_string(parents[b]) + ", not a bone index or -1");
         check_matrix(rest[b], "rest matrix", b);
         for (const dvec3& p : {heads[b], tails[b]})
             if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) ||
@@ -66,6 +65,13 @@ Skeleton Skeleton::build(std::vector<int> parents, std::vector<dmat4> rest,
         if (!(glm::length(tails[b] - heads[b]) > 0.0))
             throw InvalidInput("bone " + std::to_string(b) + " has zero length");
         s.rest_inverse.push_back(glm::inverse(rest[b]));
+    }
+    // The hierarchy must be a forest: walking up from any bone reaches a root.
+    for (int b = 0; b < count; ++b) {
+        int steps = 0;
+        for (int p = parents[b]; p != -1; p = parents[p])
+            if (++steps > count)
+                throw InvalidInput("bone " + std::to_string(b) + " is in a parent cycle");
     }
     s.parents = std::move(parents);
     s.rest = std::move(rest);

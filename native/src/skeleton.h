@@ -9,7 +9,7 @@
 namespace sd {
 
 struct Skeleton {
-    std::vector<int> parents;       ///< #B, parent < own index or -1
+    std::vector<int> parents;       ///< #B, parent index or -1; no cycles
     std::vector<dmat4> rest;        ///< #B rest matrices, armature space
     std::vector<dmat4> rest_inverse;
     std::vector<dvec3> heads, tails;

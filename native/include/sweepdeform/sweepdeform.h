@@ -64,7 +64,7 @@ SD_API const char* sd_last_error(void);
 /*
  * Creates a rig from a rest skeleton.
  *  bone_count   B >= 1
- *  parents      #B, parent index < own index, or -1 for a root
+ *  parents      #B, parent bone index or -1 for a root; the hierarchy has no cycles
  *  rest         #B*16, each bone's rest (bind) matrix in armature space, column-major;
  *               the bone's deformation in a pose P is P * rest^-1
  *  heads, tails #B*3, bone head and tail in armature space (tail != head)
