@@ -6,19 +6,11 @@
 #include "bind.h"
 #include "linear_blend_skinning.h"
 #include "rig.h"
+#include "sweep_kernel.h"
 
 #include <vector>
 
 namespace sd {
-
-/// Everything the vertex kernel needs of one span of one sweep in this frame, in float:
-/// C(u) cubic coefficients, the two key quaternions, and the volume controller's change
-/// of a(u), b(u) as quadratics per half-span.
-struct SpanKernel {
-    float c[4][3];
-    float q0[4], q1[4];    // x, y, z, w
-    float da[2][3], db[2][3];
-};
 
 class Deformer {
 public:
@@ -46,15 +38,15 @@ private:
 
     Rig rig_;
     Binding binding_;
-    std::vector<int> span_base_;       // first SpanKernel of each sweep
-    std::vector<int32_t> kernel_span_;  // per sweep influence: global span index
+    std::vector<int> span_base_;                  // first span of each sweep
+    SweepKernel kernel_;
     bool volume_enabled_ = true;
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
 
     // Per-frame scratch, kept to avoid allocating every frame.
     SkeletonPose pose_;
-    std::vector<SpanKernel> spans_;
+    std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;
 };
 

@@ -6,17 +6,16 @@
 namespace sd {
 
 namespace {
-// 8-point Gauss–Legendre on [-1, 1].
-constexpr double kGaussX[8] = {-0.9602898564975363, -0.7966664774136267, -0.5255324099163290,
-                               -0.1834346424956498, 0.1834346424956498,  0.5255324099163290,
-                               0.7966664774136267,  0.9602898564975363};
-constexpr double kGaussW[8] = {0.1012285362903763, 0.2223810344533745, 0.3137066458778873,
-                               0.3626837833783620, 0.3626837833783620, 0.3137066458778873,
-                               0.2223810344533745, 0.1012285362903763};
+// 4-point Gauss–Legendre on [-1, 1]: exact to degree 7 per half-span, where the integrand
+// is smooth (a b quartic, <N, C'> rational of low degree).
+constexpr double kGaussX[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
+                               0.8611363115940526};
+constexpr double kGaussW[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
+                               0.3478548451374538};
 }  // namespace
 
 VolumeQuadrature::VolumeQuadrature(const QuadraticCardinalBasis& basis) {
-    static_assert(kNodesPerHalf == 8, "table above has 8 nodes");
+    static_assert(kNodesPerHalf == 4, "table above has 4 nodes");
     key_count = basis.key_count();
     for (int s = 0; s < basis.span_count(); ++s)
         for (int half = 0; half < 2; ++half)
@@ -61,6 +60,36 @@ double sweep_volume(const VolumeQuadrature& q, const std::vector<double>& densit
     return volume;
 }
 
+VolumeForm::VolumeForm(const VolumeQuadrature& q, const std::vector<double>& density)
+    : m(static_cast<size_t>(q.key_count) * q.key_count, 0.0), key_count(q.key_count) {
+    const int K = key_count;
+    for (int i = 0; i < q.node_count(); ++i) {
+        const double* phi = &q.phi[static_cast<size_t>(i) * K];
+        const double wg = q.weight[i] * density[i];
+        for (int k = 0; k < K; ++k) {
+            const double f = wg * phi[k];
+            for (int l = 0; l < K; ++l) m[static_cast<size_t>(k) * K + l] += f * phi[l];
+        }
+    }
+}
+
+double VolumeForm::volume(const double* a, const double* b, double* grad_a, double* grad_b) const {
+    const int K = key_count;
+    double v = 0.0;
+    if (grad_b) std::fill(grad_b, grad_b + K, 0.0);
+    for (int k = 0; k < K; ++k) {
+        double mb = 0.0;
+        for (int l = 0; l < K; ++l) {
+            const double mkl = m[static_cast<size_t>(k) * K + l];
+            mb += mkl * b[l];
+            if (grad_b) grad_b[l] += mkl * a[k];
+        }
+        v += a[k] * mb;
+        if (grad_a) grad_a[k] = mb;
+    }
+    return v;
+}
+
 VolumeControlKeys volume_control_keys(const std::vector<bool>& is_joint) {
     VolumeControlKeys keys;
     const int K = static_cast<int>(is_joint.size());
@@ -83,15 +112,14 @@ VolumeControlKeys volume_control_keys(const std::vector<bool>& is_joint) {
     return keys;
 }
 
-VolumeControlResult control_volume(const VolumeQuadrature& q, const std::vector<double>& density,
-                                   const VolumeControlKeys& keys, double target,
-                                   std::vector<double>& a, std::vector<double>& b,
+VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys,
+                                   double target, std::vector<double>& a, std::vector<double>& b,
                                    double tolerance, int max_iterations) {
-    const int K = q.key_count;
+    const int K = form.key_count;
     const std::vector<double> a0 = a, b0 = b;
     std::vector<double> ga(K), gb(K);
     VolumeControlResult r;
-    double v = sweep_volume(q, density, a.data(), b.data(), ga.data(), gb.data());
+    double v = form.volume(a.data(), b.data(), ga.data(), gb.data());
     r.before = v;
     std::vector<int> active = keys.joints;
     for (int it = 0; it < max_iterations; ++it) {
@@ -105,7 +133,7 @@ VolumeControlResult control_volume(const VolumeQuadrature& q, const std::vector<
             a[k] = std::max(a[k] + step * ga[k], 0.1 * a0[k]);
             b[k] = std::max(b[k] + step * gb[k], 0.1 * b0[k]);
         }
-        v = sweep_volume(q, density, a.data(), b.data(), ga.data(), gb.data());
+        v = form.volume(a.data(), b.data(), ga.data(), gb.data());
         r.iterations = it + 1;
     }
     r.after = v;

@@ -1,0 +1,139 @@
+// sweep_bench: milliseconds per frame of the full sweep deformation (all vertices, sweep
+// blending, volume control) next to a 4-influence linear-blend-skinning kernel written with
+// the same care, on the same vertices and poses, measured in the same run; and the time to
+// bind. Prints figures; never fails on speed.
+//
+// Case: MakeHuman male (../shared/data/humans/mh_male_game_engine.glb), one Catmull–Clark
+// level with OpenSubdiv over its triangles: 80,270 vertices (the paper's models have 72,712).
+// Poses: the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
+#include "bone_rig.h"
+#include "deform.h"
+#include "linear_blend_skinning.h"
+
+#include <sweepdeform_io/animation.h>
+#include <sweepdeform_io/gltf_loader.h>
+#include <sweepdeform_io/refine.h>
+
+#include <benchmark/benchmark.h>
+#include <tbb/info.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+
+namespace {
+
+struct Case {
+    sd::io::Character character;
+    std::vector<std::vector<float>> poses;
+    std::unique_ptr<sd::testing::BoneRig> rig;
+    std::unique_ptr<sd::Deformer> deformer;
+};
+
+Case* g_case = nullptr;
+
+void BM_SweepDeform(benchmark::State& state) {
+    Case& c = *g_case;
+    c.deformer->set_volume_preservation(state.range(0) != 0, 1.0);
+    std::vector<float> out(c.character.positions.size());
+    size_t frame = 0;
+    for (auto _ : state) {
+        c.deformer->deform(c.poses[frame++ % c.poses.size()].data(), out.data());
+        benchmark::DoNotOptimize(out.data());
+    }
+    state.counters["vertices"] = static_cast<double>(out.size() / 3);
+}
+
+void BM_LinearBlendSkinning4(benchmark::State& state) {
+    Case& c = *g_case;
+    const int V = static_cast<int>(c.character.positions.size() / 3);
+    std::vector<float> out(c.character.positions.size());
+    sd::SkeletonPose pose;
+    size_t frame = 0;
+    for (auto _ : state) {
+        // The same per-frame preparation as the sweep path: validate the pose, build matrices.
+        pose.set(c.rig->rig.skeleton, c.poses[frame++ % c.poses.size()].data());
+        sd::skin_linear_blend4(sd::bone_affines(pose), V, c.character.positions.data(),
+                               c.character.skin_joints.data(), c.character.skin_weights.data(), out.data());
+        benchmark::DoNotOptimize(out.data());
+    }
+}
+
+void BM_Bind(benchmark::State& state) {
+    Case& c = *g_case;
+    for (auto _ : state) {
+        const sd::Binding b = c.rig->bind(c.character);
+        benchmark::DoNotOptimize(b.sweep_influences.data());
+    }
+}
+
+// Interleaved repetitions and their median keep the ratio honest on a machine whose load
+// changes during the run.
+BENCHMARK(BM_SweepDeform)->Arg(1)->Arg(0)->ArgName("volume")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly();
+BENCHMARK(BM_LinearBlendSkinning4)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly();
+BENCHMARK(BM_Bind)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
+
+/// Console output as usual, plus each benchmark's real time per iteration in ms.
+class RecordingReporter : public benchmark::ConsoleReporter {
+public:
+    std::map<std::string, double> ms;
+    void ReportRuns(const std::vector<Run>& runs) override {
+        ConsoleReporter::ReportRuns(runs);
+        for (const Run& r : runs)
+            if (r.run_type == Run::RT_Iteration || r.aggregate_name == "median")
+                ms[r.benchmark_name()] = r.GetAdjustedRealTime() *
+                                         (r.time_unit == benchmark::kMillisecond ? 1.0 : 1e-6);
+    }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const std::string data = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/";
+    if (!std::filesystem::exists(data + "mh_male_game_engine.glb")) {
+        std::printf("sweep_bench: ../shared/data not found; nothing to measure (skipped)\n");
+        return 0;
+    }
+    benchmark::Initialize(&argc, argv);
+    Case c;
+    const auto t0 = std::chrono::steady_clock::now();
+    c.character = sd::io::refine_catmull_clark(sd::io::load_gltf_character(data + "mh_male_game_engine.glb"), 1);
+    const sd::io::Character anims = sd::io::load_gltf_character(data + "mh_male_game_engine_anims.glb");
+    int clip = 0;
+    for (size_t i = 0; i < anims.animations.size(); ++i)
+        if (anims.animations[i].name.find("dance") != std::string::npos) clip = static_cast<int>(i);
+    for (int f = 0; f < 120; ++f) c.poses.push_back(sd::io::sample_pose(anims, clip, 1.0 + f / 30.0));
+    c.rig = std::make_unique<sd::testing::BoneRig>(sd::testing::make_bone_rig(c.character, sd::testing::makehuman_chains()));
+    c.deformer = std::make_unique<sd::Deformer>(c.rig->rig, c.rig->bind(c.character));
+    const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    g_case = &c;
+
+    const int V = static_cast<int>(c.character.positions.size() / 3);
+    std::printf("case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %zu sweeps, clip %s, %d threads (setup %.2f s)\n",
+                V, c.rig->rig.sweeps.size(), anims.animations[clip].name.c_str(),
+                tbb::info::default_concurrency(), setup);
+    RecordingReporter reporter;
+    benchmark::RunSpecifiedBenchmarks(&reporter);
+    benchmark::Shutdown();
+
+    const auto ms = [&](const std::string& prefix) {
+        for (const auto& [name, t] : reporter.ms)  // the median where there are repetitions
+            if (name.rfind(prefix, 0) == 0 && (name.find("_median") != std::string::npos ||
+                                               name.find("repeats") == std::string::npos))
+                return t;
+        return 0.0;
+    };
+    const double sweep = ms("BM_SweepDeform/volume:1"), sweep_nv = ms("BM_SweepDeform/volume:0");
+    const double lbs = ms("BM_LinearBlendSkinning4"), bind = ms("BM_Bind");
+    if (sweep > 0 && lbs > 0) {
+        std::printf("\nFIGURES (%d vertices)\n", V);
+        std::printf("  sweep deformation, volume control on : %.3f ms/frame\n", sweep);
+        std::printf("  sweep deformation, volume control off: %.3f ms/frame\n", sweep_nv);
+        std::printf("  linear blend skinning, 4 influences  : %.3f ms/frame\n", lbs);
+        std::printf("  ratio sweep / LBS                    : %.2f (target <= 1.0)\n", sweep / lbs);
+        std::printf("  bind (all vertices)                  : %.1f ms\n", bind);
+    }
+    return 0;
+}

@@ -1,0 +1,21 @@
+// The OpenMesh half-edge structure behind FitMesh (internal to the fit sources).
+#pragma once
+
+#include "fit/mesh.h"
+
+#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+
+#include <vector>
+
+namespace sd::fit {
+
+using OpenMeshTri = OpenMesh::TriMesh_ArrayKernelT<>;
+
+struct FitMesh::HalfEdge {
+    OpenMeshTri mesh;
+    /// Input vertex of each OpenMesh vertex: faces OpenMesh refuses (complex edges or
+    /// vertices) are added on copies of their vertices, so several may map to one.
+    std::vector<int32_t> input_vertex;
+};
+
+}  // namespace sd::fit
