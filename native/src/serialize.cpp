@@ -76,6 +76,7 @@ public:
 private:
     void take(void* out, size_t n) {
         if (n > left_) throw CorruptData("blob is truncated");
+        if (n == 0) return;  // an empty array: out may be NULL
         std::memcpy(out, p_, n);
         p_ += n;
         left_ -= n;

@@ -75,7 +75,9 @@ TEST(CApi, InvalidSkeletonsAreRefused) {
     expect_error(create(0, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "zero bones");
     expect_error(create(3, nullptr, arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "NULL parents");
     std::vector<int32_t> bad_parents = {-1, 2, 1};
-    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "parent after child");
+    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "parent cycle");
+    bad_parents = {-1, 0, 3};
+    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "parent out of range");
     std::vector<float> rest = arm.rest;
     rest[5] = kNaN;
     expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "NaN rest");

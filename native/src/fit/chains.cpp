@@ -1,0 +1,482 @@
+#include "fit/chains.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <limits>
+
+namespace sd::fit {
+
+const char* chain_kind_name(ChainKind kind) {
+    switch (kind) {
+        case ChainKind::Torso: return "torso";
+        case ChainKind::Neck: return "neck";
+        case ChainKind::Arm: return "arm";
+        case ChainKind::Leg: return "leg";
+        case ChainKind::Custom: break;
+    }
+    return "custom";
+}
+
+namespace {
+
+/// Per-bone facts of the rest skeleton used by the rules below.
+struct Tree {
+    const Skeleton& s;
+    int count;
+    std::vector<std::vector<int>> children;
+    std::vector<double> length;  ///< |tail - head|
+    /// Longest geometric path from the bone's head through its subtree (to a tail).
+    std::vector<double> reach;
+    std::vector<double> mass;    ///< summed skin weight of the subtree (empty: unknown)
+    double size = 1.0;           ///< diagonal of the heads' and tails' bounding box
+
+    Tree(const Skeleton& skeleton, const std::vector<double>& bone_mass) : s(skeleton), count(skeleton.bone_count()) {
+        children.resize(count);
+        length.resize(count);
+        reach.resize(count);
+        dvec3 lo(std::numeric_limits<double>::infinity()), hi = -lo;
+        for (int b = 0; b < count; ++b) {
+            if (s.parents[b] >= 0) children[s.parents[b]].push_back(b);
+            length[b] = glm::length(s.tails[b] - s.heads[b]);
+            lo = glm::min(lo, glm::min(s.heads[b], s.tails[b]));
+            hi = glm::max(hi, glm::max(s.heads[b], s.tails[b]));
+        }
+        size = std::max(glm::length(hi - lo), 1e-300);
+        if (!bone_mass.empty()) mass = bone_mass;
+        for (int b = count - 1; b >= 0; --b) {  // parents come first: children are done
+            reach[b] = length[b];
+            for (int c : children[b]) {
+                reach[b] = std::max(reach[b], glm::length(s.heads[c] - s.heads[b]) + reach[c]);
+                if (!mass.empty()) mass[b] += mass[c];
+            }
+        }
+    }
+    bool deforms(int b) const { return mass.empty() || mass[b] > 0.0; }
+    /// A branch long enough to be a limb or the spine (fingers, toes, face bones are not).
+    bool long_branch(int b) const { return deforms(b) && reach[b] >= 0.15 * size; }
+    /// Not a tiny helper bone.
+    bool real(int b) const { return deforms(b) && reach[b] >= 0.02 * size; }
+    std::vector<int> long_children(int b) const {
+        std::vector<int> out;
+        for (int c : children[b])
+            if (long_branch(c)) out.push_back(c);
+        return out;
+    }
+    /// Bones of b's subtree that are long branches without long children.
+    int extremities(int b) const {
+        const std::vector<int> lc = long_children(b);
+        if (lc.empty()) return long_branch(b) ? 1 : 0;
+        int n = 0;
+        for (int c : lc) n += extremities(c);
+        return n;
+    }
+    /// The point of b's subtree farthest from `from`.
+    dvec3 farthest(int b, const dvec3& from) const {
+        dvec3 best = s.heads[b];
+        double d = glm::length(best - from);
+        const auto visit = [&](auto&& self, int x) -> void {
+            for (const dvec3& p : {s.heads[x], s.tails[x]})
+                if (glm::length(p - from) > d) {
+                    d = glm::length(p - from);
+                    best = p;
+                }
+            for (int c : children[x]) self(self, c);
+        };
+        visit(visit, b);
+        return best;
+    }
+    /// Following the child of largest reach from b down to a leaf, or to a bone with three
+    /// or more real children (a hand with fingers, a foot with toes), which ends the path.
+    std::vector<int> main_path(int b, int* fan_out) const {
+        std::vector<int> path{b};
+        *fan_out = -1;
+        for (int cur = b;;) {
+            int real_children = 0, best = -1;
+            for (int c : children[cur]) {
+                if (!deforms(c)) continue;
+                if (reach[c] > 0.0) ++real_children;
+                if (best < 0 || reach[c] > reach[best]) best = c;
+            }
+            if (real_children >= 3 && path.size() > 1) {
+                path.pop_back();
+                *fan_out = cur;
+                return path;
+            }
+            if (best < 0) return path;
+            path.push_back(best);
+            cur = best;
+        }
+    }
+    bool is_descendant(int b, int ancestor) const {
+        for (int x = b; x >= 0; x = s.parents[x])
+            if (x == ancestor) return true;
+        return false;
+    }
+};
+
+std::string lower(std::string s) {
+    for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+/// +1 when a bone name says left, -1 right, 0 neither (Blender .L/_l, Mixamo Left..., l_...).
+int name_side(const std::string& name) {
+    const std::string n = lower(name);
+    const auto has = [&](const char* s) { return n.find(s) != std::string::npos; };
+    const auto ends = [&](const char* s) {
+        const std::string e(s);
+        return n.size() >= e.size() && n.compare(n.size() - e.size(), e.size(), e) == 0;
+    };
+    const auto starts = [&](const char* s) { return n.rfind(s, 0) == 0; };
+    if (has("left") || ends("_l") || ends(".l") || ends("-l") || has("_l_") || has(".l.") || starts("l_") ||
+        starts("l.") || has("_l.") || has("_l0"))
+        return 1;
+    if (has("right") || ends("_r") || ends(".r") || ends("-r") || has("_r_") || has(".r.") || starts("r_") ||
+        starts("r.") || has("_r.") || has("_r0"))
+        return -1;
+    return 0;
+}
+
+std::string bone_label(const std::vector<std::string>& names, int b) {
+    return "bone " + std::to_string(b) + (b < static_cast<int>(names.size()) && !names[b].empty()
+                                              ? " '" + names[b] + "'" : std::string());
+}
+
+/// Splits a limb's main path into links and end bone: the upper and lower link are the two
+/// consecutive bones of largest summed length.
+void split_limb(const Tree& t, int root, Chain* chain) {
+    int fan_out = -1;
+    std::vector<int> path = t.main_path(root, &fan_out);
+    if (fan_out >= 0) path.push_back(fan_out);
+    // The pair search stops before the fan-out bone (the hand itself is never a link).
+    const int searchable = static_cast<int>(path.size()) - (fan_out >= 0 ? 1 : 0);
+    int best = 0;
+    double best_len = -1.0;
+    for (int i = 0; i + 1 < searchable; ++i) {
+        const double len = t.length[path[i]] + t.length[path[i + 1]];
+        if (len > best_len + 1e-9 * t.size) {
+            best_len = len;
+            best = i;
+        }
+    }
+    const int last = std::min(best + 1, searchable - 1);
+    chain->bones.assign(path.begin(), path.begin() + last + 1);
+    chain->first_swept = best;
+    chain->end_bone = last + 1 < static_cast<int>(path.size()) ? path[last + 1] : -1;
+}
+
+}  // namespace
+
+ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, const std::vector<double>& bone_mass) {
+    const Tree t(s, bone_mass);
+    ChainSet out;
+    out.size = t.size;
+    const auto label = [&](int b) { return bone_label(names, b); };
+
+    // The root with the longest reach (a rig may carry extra roots: IK targets, props).
+    int root = -1;
+    for (int b = 0; b < t.count; ++b)
+        if (s.parents[b] < 0 && t.deforms(b) && (root < 0 || t.reach[b] > t.reach[root])) root = b;
+    if (root < 0) throw InvalidInput("automatic chains: the skeleton has no root bone with skin weights");
+
+    // Hips: the first bone from the root where two or more long branches split.
+    int hips = root;
+    for (;;) {
+        const std::vector<int> lc = t.long_children(hips);
+        if (lc.size() >= 2) break;
+        if (lc.empty())
+            throw InvalidInput("automatic chains: no branching found below " + label(root) +
+                               " (a humanoid splits into spine and legs); give the chains explicitly");
+        hips = lc[0];
+    }
+    std::vector<int> branches = t.long_children(hips);
+    int spine_child = branches[0];
+    for (int c : branches)
+        if (t.extremities(c) > t.extremities(spine_child) ||
+            (t.extremities(c) == t.extremities(spine_child) && t.reach[c] < t.reach[spine_child]))
+            spine_child = c;
+    // Legs: the other long branches (descending where a branch splits again, as in rigs
+    // whose legs hang from a pelvis bone beside the spine).
+    std::vector<int> legs;
+    const auto collect_legs = [&](auto&& self, int b) -> void {
+        const std::vector<int> lc = t.long_children(b);
+        if (t.extremities(b) <= 1 || lc.empty()) {
+            legs.push_back(b);
+            return;
+        }
+        if (lc.size() == 1) return self(self, lc[0]);
+        for (int c : lc) self(self, c);
+    };
+    for (int c : branches)
+        if (c != spine_child) collect_legs(collect_legs, c);
+    if (legs.size() > 2) {
+        std::sort(legs.begin(), legs.end(), [&](int a, int b) { return t.reach[a] > t.reach[b]; });
+        out.notes.push_back("more than two leg-like branches at " + label(hips) + "; kept the two longest");
+        legs.resize(2);
+    }
+    if (legs.size() != 2)
+        throw InvalidInput("automatic chains: expected two legs branching at the hips " + label(hips) + ", found " +
+                           std::to_string(legs.size()) + "; give the chains explicitly");
+
+    const dvec3 hip = s.heads[hips];
+    const auto leg_center = [&](int b) {
+        int fan = -1;
+        dvec3 c(0.0);
+        const std::vector<int> path = t.main_path(b, &fan);
+        for (int x : path) c += 0.5 * (s.heads[x] + s.tails[x]);
+        return c / static_cast<double>(path.size());
+    };
+    dvec3 lateral = leg_center(legs[0]) - leg_center(legs[1]);
+    if (!(glm::length(lateral) > 1e-6 * t.size))
+        throw InvalidInput("automatic chains: the two legs " + label(legs[0]) + " and " + label(legs[1]) +
+                           " coincide; give the chains explicitly");
+    lateral = glm::normalize(lateral);
+
+    // The spine, from the hips to the head: at each bone continue into the child whose far
+    // end lies nearest the mid-plane; long side branches are arms.
+    std::vector<int> spine{hips};
+    std::vector<std::pair<int, int>> arms;  // (arm root, spine bone it hangs from)
+    for (int cur = spine_child;;) {
+        spine.push_back(cur);
+        int next = -1;
+        double next_ratio = 2.0;
+        std::vector<std::pair<int, double>> candidates;
+        for (int c : t.children[cur]) {
+            if (!t.real(c)) continue;
+            const dvec3 e = t.farthest(c, hip) - hip;
+            const double ratio = std::abs(glm::dot(e, lateral)) / std::max(glm::length(e), 1e-300);
+            candidates.push_back({c, ratio});
+            if (ratio < next_ratio) {
+                next_ratio = ratio;
+                next = c;
+            }
+        }
+        if (next < 0) break;
+        for (const auto& [c, ratio] : candidates)
+            if (c != next && t.long_branch(c) && ratio > 0.25) arms.push_back({c, cur});
+        cur = next;
+    }
+    if (arms.size() > 2) {
+        std::sort(arms.begin(), arms.end(), [&](auto& a, auto& b) { return t.reach[a.first] > t.reach[b.first]; });
+        out.notes.push_back("more than two arm-like branches on the spine; kept the two longest");
+        arms.resize(2);
+    }
+    if (arms.size() == 1) out.notes.push_back("found only one arm (" + label(arms[0].first) + ")");
+    if (arms.empty()) out.notes.push_back("found no arms on the spine");
+
+    // Chest: the deepest spine bone an arm hangs from. The torso ends there.
+    int chest_index = static_cast<int>(spine.size()) - 1;
+    if (!arms.empty()) {
+        chest_index = 0;
+        for (const auto& a : arms)
+            chest_index = std::max(chest_index, static_cast<int>(std::find(spine.begin(), spine.end(), a.second) - spine.begin()));
+    } else {
+        chest_index = std::max(0, static_cast<int>(spine.size()) - 3);
+    }
+    const std::vector<int> rest(spine.begin() + chest_index + 1, spine.end());
+    int head = -1;
+    std::vector<int> neck;
+    if (rest.size() == 1) {
+        head = rest[0];
+    } else if (rest.size() >= 2) {
+        int h = 1;
+        if (!t.mass.empty()) {
+            for (int i = 1; i < static_cast<int>(rest.size()); ++i)
+                if (bone_mass[rest[i]] > bone_mass[rest[h]]) h = i;
+        } else {
+            for (int i = 1; i < static_cast<int>(rest.size()); ++i)
+                if (rest[i] < static_cast<int>(names.size()) && lower(names[rest[i]]).find("head") != std::string::npos) {
+                    h = i;
+                    break;
+                }
+        }
+        head = rest[h];
+        neck.assign(rest.begin(), rest.begin() + h);
+    }
+
+    // Body frame: up from the hips to the head, left from the legs, forward from the feet.
+    const dvec3 top = head >= 0 ? s.heads[head] : s.tails[spine.back()];
+    dvec3 up = top - hip;
+    up -= glm::dot(up, lateral) * lateral;
+    if (!(glm::length(up) > 1e-3 * t.size))
+        throw InvalidInput("automatic chains: the spine from " + label(hips) + " does not rise above the hips");
+    up = glm::normalize(up);
+    BodyFrame& frame = out.frame;
+    frame.up = up;
+    Chain leg_chain[2];
+    dvec3 feet(0.0);
+    double foot_length = 0.0;
+    for (int i = 0; i < 2; ++i) {
+        leg_chain[i].kind = ChainKind::Leg;
+        split_limb(t, legs[i], &leg_chain[i]);
+        if (leg_chain[i].end_bone >= 0) {
+            const int f = leg_chain[i].end_bone;
+            feet += s.tails[f] - s.heads[f];
+            foot_length += t.length[f];
+        }
+    }
+    feet -= glm::dot(feet, up) * up;
+    int leg0_side = 0;  // +1: legs[0] is the left leg
+    if (foot_length > 0.0 && glm::length(feet) > 0.2 * foot_length) {
+        frame.forward = glm::normalize(feet);
+        frame.left = glm::normalize(glm::cross(up, frame.forward));
+        frame.sides_known = true;
+        leg0_side = glm::dot(lateral, frame.left) > 0.0 ? 1 : -1;
+        out.notes.push_back("forward direction from the feet");
+    } else {
+        int vote = 0;
+        for (int i = 0; i < 2; ++i)
+            for (int b : leg_chain[i].bones)
+                if (b < static_cast<int>(names.size())) vote += (i == 0 ? 1 : -1) * name_side(names[b]);
+        frame.left = vote < 0 ? -lateral : lateral;
+        frame.forward = glm::normalize(glm::cross(frame.left, up));
+        frame.sides_known = vote != 0;
+        leg0_side = vote < 0 ? -1 : 1;
+        out.notes.push_back(vote != 0 ? "no feet found: sides from the bone names"
+                                      : "no feet and no side names: left and right are a guess");
+    }
+    frame.left = glm::normalize(frame.left - glm::dot(frame.left, up) * up);
+
+    const auto side_name = [&](int side) { return !frame.sides_known ? (side > 0 ? "_a" : "_b") : (side > 0 ? "_l" : "_r"); };
+    const auto mirrored_check = [&](const Chain& c) {
+        // Names contradicting the geometry are worth a note (mirrored rig, odd naming).
+        int vote = 0;
+        for (int b : c.bones)
+            if (b < static_cast<int>(names.size())) vote += name_side(names[b]);
+        if (frame.sides_known && vote != 0 && (vote > 0) != (c.side > 0))
+            out.notes.push_back("chain " + c.name + ": bone names say the other side");
+    };
+
+    // Torso: hips .. chest; its end key sits at the neck base.
+    Chain torso;
+    torso.kind = ChainKind::Torso;
+    torso.name = "torso";
+    torso.bones.assign(spine.begin(), spine.begin() + chest_index + 1);
+    torso.end_bone = !rest.empty() ? rest[0] : -1;
+    out.chains.push_back(torso);
+    if (!neck.empty()) {
+        Chain c;
+        c.kind = ChainKind::Neck;
+        c.name = "neck";
+        c.bones = neck;
+        c.end_bone = head;
+        c.parent_chain = 0;
+        c.joint_parent = spine[chest_index];
+        out.chains.push_back(c);
+    }
+    // Arms, left first.
+    std::vector<Chain> arm_chains;
+    for (const auto& [arm_root, attach] : arms) {
+        Chain c;
+        c.kind = ChainKind::Arm;
+        split_limb(t, arm_root, &c);
+        c.side = glm::dot(t.farthest(arm_root, hip) - hip, frame.left) > 0.0 ? 1 : -1;
+        c.name = std::string("arm") + side_name(c.side);
+        c.parent_chain = 0;
+        c.joint_parent = c.first_swept > 0 ? c.bones[c.first_swept - 1] : attach;
+        arm_chains.push_back(c);
+    }
+    std::sort(arm_chains.begin(), arm_chains.end(), [](const Chain& a, const Chain& b) { return a.side > b.side; });
+    if (arm_chains.size() == 2 && arm_chains[0].side == arm_chains[1].side)
+        out.notes.push_back("both arms lie on the same side of the body");
+    for (Chain& c : arm_chains) {
+        mirrored_check(c);
+        out.chains.push_back(c);
+    }
+    for (int k = 0; k < 2; ++k) {
+        const int i = (leg0_side > 0) == (k == 0) ? 0 : 1;  // left leg first
+        Chain c = leg_chain[i];
+        c.side = (i == 0 ? leg0_side : -leg0_side);
+        c.name = std::string("leg") + side_name(c.side);
+        c.parent_chain = 0;
+        c.joint_parent = c.first_swept > 0 ? c.bones[c.first_swept - 1] : s.parents[c.bones[0]];
+        mirrored_check(c);
+        out.chains.push_back(c);
+    }
+    return out;
+}
+
+ChainSet chains_from_lists(const Skeleton& s, const std::vector<std::vector<int>>& lists) {
+    const Tree t(s, {});
+    ChainSet out;
+    out.size = t.size;
+    std::vector<int> owner(t.count, -1);
+    for (size_t c = 0; c < lists.size(); ++c) {
+        const std::string where = "chain " + std::to_string(c);
+        if (lists[c].empty()) throw InvalidInput(where + " has no bones");
+        for (size_t k = 0; k < lists[c].size(); ++k) {
+            const int b = lists[c][k];
+            if (b < 0 || b >= t.count)
+                throw InvalidInput(where + ": bone index " + std::to_string(b) + " is out of range 0.." +
+                                   std::to_string(t.count - 1));
+            if (owner[b] >= 0)
+                throw InvalidInput(where + ": bone " + std::to_string(b) + " is already in chain " +
+                                   std::to_string(owner[b]));
+            owner[b] = static_cast<int>(c);
+            if (k > 0 && !t.is_descendant(b, lists[c][k - 1]))
+                throw InvalidInput(where + ": bone " + std::to_string(b) + " is not below bone " +
+                                   std::to_string(lists[c][k - 1]) + " (a chain runs down the hierarchy)");
+        }
+    }
+    for (size_t c = 0; c < lists.size(); ++c) {
+        Chain ch;
+        ch.name = "chain_" + std::to_string(c);
+        ch.bones = lists[c];
+        const int last = ch.bones.back();
+        const dvec3 dir = s.tails[last] - s.heads[last];
+        double best = -std::numeric_limits<double>::infinity();
+        for (int child : t.children[last]) {
+            if (!t.real(child)) continue;
+            const dvec3 cd = glm::normalize(s.tails[child] - s.heads[child]);
+            const double score = glm::dot(cd, glm::normalize(dir));
+            if (score > best) {
+                best = score;
+                ch.end_bone = child;
+            }
+        }
+        out.chains.push_back(ch);
+    }
+    // A chain hangs from the chain owning the nearest chain bone above its first bone.
+    for (Chain& ch : out.chains)
+        for (int x = s.parents[ch.bones[0]]; x >= 0; x = s.parents[x])
+            if (owner[x] >= 0) {
+                ch.parent_chain = owner[x];
+                ch.joint_parent = s.parents[ch.bones[0]];
+                break;
+            }
+    out.notes.push_back("chains given explicitly");
+    return out;
+}
+
+BoneOwners bone_owners(const Skeleton& s, const ChainSet& set) {
+    const int B = s.bone_count();
+    BoneOwners o;
+    o.chain.assign(B, -1);
+    o.attached.assign(B, -1);
+    std::vector<char> decided(B, 0);
+    for (size_t c = 0; c < set.chains.size(); ++c)
+        for (int b : set.chains[c].bones) {
+            o.chain[b] = static_cast<int>(c);
+            decided[b] = 1;
+        }
+    for (size_t c = 0; c < set.chains.size(); ++c) {
+        const int e = set.chains[c].end_bone;
+        if (e >= 0 && !decided[e]) {
+            o.attached[e] = static_cast<int>(c);
+            decided[e] = 1;
+        }
+    }
+    // Everything else follows its parent (parents come first): below a rigid end bone it
+    // is rigid too, below a link it rides that link's chain.
+    for (int b = 0; b < B; ++b) {
+        if (decided[b]) continue;
+        const int p = s.parents[b];
+        if (p < 0) continue;  // an extra root (e.g. a "Root" bone at the origin): rigid
+        o.chain[b] = o.chain[p];
+        o.attached[b] = o.attached[p];
+    }
+    return o;
+}
+
+}  // namespace sd::fit
