@@ -30,10 +30,13 @@ void Deformer::set_volume_preservation(bool enabled, double strength) {
 void Deformer::set_volume_offsets(const std::vector<double>& offsets) {
     if (offsets.size() != rig_.sweeps.size())
         throw InvalidInput("one volume offset per sweep is needed");
-    for (size_t s = 0; s < offsets.size(); ++s)
-        if (!std::isfinite(offsets[s]) || !(offsets[s] < rig_.sweeps[s].rest_volume))
+    for (size_t s = 0; s < offsets.size(); ++s) {
+        // The target V0 - offset must stay a plausible volume: 10 % .. 10x the rest volume.
+        const double v0 = rig_.sweeps[s].rest_volume;
+        if (!(offsets[s] <= 0.9 * v0 && offsets[s] >= -9.0 * v0))
             throw InvalidInput("volume offset of sweep " + std::to_string(s) +
-                               " must be finite and smaller than its rest volume");
+                               " must lie in [-9, 0.9] x its rest volume (" + std::to_string(v0) + ")");
+    }
     volume_offsets_ = offsets;
 }
 

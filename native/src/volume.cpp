@@ -130,8 +130,8 @@ VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKe
         if (!(norm2 > 0.0)) break;
         const double step = (target - v) / norm2;
         for (int k : active) {
-            a[k] = std::max(a[k] + step * ga[k], 0.1 * a0[k]);
-            b[k] = std::max(b[k] + step * gb[k], 0.1 * b0[k]);
+            a[k] = std::clamp(a[k] + step * ga[k], 0.1 * a0[k], 10.0 * a0[k]);
+            b[k] = std::clamp(b[k] + step * gb[k], 0.1 * b0[k], 10.0 * b0[k]);
         }
         v = form.volume(a.data(), b.data(), ga.data(), gb.data());
         r.iterations = it + 1;

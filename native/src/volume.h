@@ -61,7 +61,7 @@ struct VolumeControlResult {
 ///   Δ(α, β) = (V_target − V) / |∇V|² ∇V
 /// over the joint keys for the first two iterations and over joints plus neighbours after,
 /// until |V − V_target| / V_target <= tolerance or `max_iterations` steps were taken.
-/// Half-axes never shrink below 10 % of their rest value.
+/// Half-axes stay within 10 % .. 10x of their rest values.
 /// @param a, b  in: rest key half-axes; out: controlled ones (#K each)
 VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys,
                                    double target,

@@ -162,7 +162,8 @@ SD_API sd_status sd_deformer_set_volume_preservation(sd_deformer* deformer, int3
                                                      float strength);
 /*
  * Per-sweep volume the controller subtracts from the rest volume: its target becomes
- * V0 - offset (the anatomical effects' I_C). offsets #S, units^3.
+ * V0 - offset (the anatomical effects' I_C). offsets #S, units^3, each within
+ * [-9, 0.9] x the sweep's rest volume.
  */
 SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t sweep_count,
                                                 const float* offsets);

@@ -1,0 +1,24 @@
+// Deforming with arbitrary poses and volume settings: either an error, or finite positions.
+#include "fuzz_fixture.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    static const sdfuzz::Arm arm;
+    static sd_binding* binding = arm.bind();
+    // A fresh deformer per input, so that a crash replays from its input alone.
+    sd_deformer* d = nullptr;
+    if (sd_deformer_create(arm.rig, binding, &d) != SD_OK) __builtin_trap();
+    sdfuzz::Bytes in(data, size);
+    sd_deformer_set_volume_preservation(d, in.take<uint8_t>() & 1, in.take<float>());
+    float offsets[1] = {in.take<float>()};
+    sd_deformer_set_volume_offsets(d, 1, offsets);
+    float pose[48];
+    for (int i = 0; i < 48; ++i) {
+        const uint8_t mode = in.take<uint8_t>();
+        pose[i] = mode < 128 ? arm.rest[i] + in.take<int8_t>() / 32.0f : in.take<float>();
+    }
+    const int32_t V = sd_binding_vertex_count(binding);
+    std::vector<float> out(3 * static_cast<size_t>(V));
+    if (sd_deform(d, 3, pose, V, out.data()) == SD_OK) sdfuzz::require_finite(out.data(), out.size());
+    sd_deformer_destroy(d);
+    return 0;
+}

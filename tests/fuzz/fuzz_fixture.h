@@ -1,0 +1,84 @@
+// Shared by the fuzz targets: the synthetic arm of the native tests, built through the ABI,
+// and a little reader that turns fuzzer bytes into numbers.
+#pragma once
+
+#include "sweepdeform/sweepdeform.h"
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <vector>
+
+namespace sdfuzz {
+
+/// Consumes typed values from the fuzzer's bytes; past the end it yields zeros.
+class Bytes {
+public:
+    Bytes(const uint8_t* data, size_t size) : p_(data), n_(size) {}
+    template <class T>
+    T take() {
+        T v{};
+        const size_t k = n_ < sizeof(T) ? n_ : sizeof(T);
+        if (k) std::memcpy(&v, p_, k);
+        p_ += k;
+        n_ -= k;
+        return v;
+    }
+    size_t left() const { return n_; }
+
+private:
+    const uint8_t* p_;
+    size_t n_;
+};
+
+/// Three bones along +x and one sweep of seven keys (see tests/native/test_arm.h).
+struct Arm {
+    int32_t parents[3] = {-1, 0, 1};
+    float rest[48] = {};
+    float heads[9] = {0, 0, 0, 1, 0, 0, 2, 0, 0}, tails[9] = {1, 0, 0, 2, 0, 0, 2.3f, 0, 0};
+    sd_rig* rig = nullptr;
+
+    Arm() {
+        for (int b = 0; b < 3; ++b) {
+            for (int i = 0; i < 4; ++i) rest[16 * b + 5 * i] = 1.0f;
+            rest[16 * b + 12] = heads[3 * b];
+        }
+        float centers[21], orientations[28], half_axes[14], fractions[14];
+        int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
+        for (int k = 0; k < 7; ++k) {
+            centers[3 * k] = k / 3.0f;
+            centers[3 * k + 1] = centers[3 * k + 2] = 0.0f;
+            for (int i = 0; i < 4; ++i) orientations[4 * k + i] = 0.5f;
+            half_axes[2 * k] = 0.1f;
+            half_axes[2 * k + 1] = 0.07f;
+            fractions[2 * k] = 0.5f;
+            fractions[2 * k + 1] = k == 6 ? 1.0f : 0.5f;
+        }
+        if (sd_rig_create(3, parents, rest, heads, tails, &rig) != SD_OK ||
+            sd_rig_add_sweep(rig, 7, centers, orientations, half_axes, bones, joint_parents, fractions, nullptr) != SD_OK)
+            __builtin_trap();
+    }
+    ~Arm() { sd_rig_destroy(rig); }
+
+    /// A ring mesh around the sweep, bound to it (for targets that need a binding).
+    sd_binding* bind() const {
+        std::vector<float> mesh;
+        for (int r = 0; r < 11; ++r)
+            for (int s = 0; s < 8; ++s)
+                mesh.insert(mesh.end(), {r / 5.0f, 0.1f * std::cos(s * 0.785f), 0.07f * std::sin(s * 0.785f)});
+        std::vector<int32_t> ids(88, 0);
+        std::vector<float> w(88, 1.0f);
+        sd_binding* b = nullptr;
+        if (sd_bind(rig, 88, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b) != SD_OK) __builtin_trap();
+        return b;
+    }
+};
+
+/// Every output must be finite when a call succeeded.
+inline void require_finite(const float* p, size_t n) {
+    for (size_t i = 0; i < n; ++i)
+        if (!std::isfinite(p[i])) __builtin_trap();
+}
+
+}  // namespace sdfuzz
