@@ -187,6 +187,64 @@ SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sw
 SD_API sd_status sd_deformer_get_volume_iterations(const sd_deformer* deformer,
                                                    int32_t sweep_count, int32_t* iterations);
 
+/* ---- automatic fitting (Sect. 3.2, 3.5) ---- */
+
+/*
+ * A fitted sweep rig for a rigged character, made in one call: sweep chains found from the
+ * skeleton (torso, neck, arms, legs), key ellipses fitted to the mesh's cross-sections at
+ * the joints and along the links, and per-vertex weights for sd_bind (sweeps where the
+ * chains are, the character's own bones for hands, feet and head).
+ */
+typedef struct sd_fit_result sd_fit_result;
+
+/*
+ * Fits a rig. Everything in armature space, any unit (tolerances are relative).
+ *  vertex_count V >= 3, positions #V*3; triangle_count T >= 1, triangles #T*3 vertex indices
+ *  bone_count B, parents, rest, heads, tails  as in sd_rig_create
+ *  bone_names    #B NUL-terminated names, or NULL (entries may be NULL); hints only
+ *  skin_slots    S >= 0 influences per vertex; skin_bones #V*S (-1 unused), skin_weights #V*S
+ *                (>= 0). S = 0 (arrays NULL): the regions come from geometry alone.
+ *  keys_per_link intermediate key ellipses per link, 0..16 (2 is the usual choice)
+ *  chain_count   0: find the chains automatically. Otherwise the chains, from the body
+ *                outwards: chain c has bones chain_bones[chain_offsets[c] ..
+ *                chain_offsets[c+1]), each bone below the one before it;
+ *                chain_offsets #chain_count+1, starting at 0 and increasing.
+ * A chain that cannot be fitted gets no sweep (its bones then drive their vertices), which
+ * the report says; it is an error only when no chain can be fitted.
+ */
+SD_API sd_status sd_fit_rig(int32_t vertex_count, const float* positions, int32_t triangle_count,
+                            const int32_t* triangles, int32_t bone_count, const int32_t* parents,
+                            const float* rest, const float* heads, const float* tails,
+                            const char* const* bone_names, int32_t skin_slots,
+                            const int32_t* skin_bones, const float* skin_weights,
+                            int32_t keys_per_link, int32_t chain_count,
+                            const int32_t* chain_offsets, const int32_t* chain_bones,
+                            sd_fit_result** out_result);
+SD_API void sd_fit_result_destroy(sd_fit_result* result);
+/* A new rig (the skeleton and one sweep per fitted chain); the caller destroys it. */
+SD_API sd_status sd_fit_result_rig(const sd_fit_result* result, sd_rig** out_rig);
+/* Slot counts of the weights below (either pointer may be NULL). */
+SD_API sd_status sd_fit_result_slot_counts(const sd_fit_result* result, int32_t* sweep_slots,
+                                           int32_t* bone_slots);
+/*
+ * The binding weights, ready for sd_bind with the same slot counts: sweep_ids/sweep_weights
+ * #V*sweep_slots, bone_ids/bone_weights #V*bone_slots. Slot counts may exceed those of
+ * sd_fit_result_slot_counts (extra slots get id -1, weight 0), not fall short of them.
+ */
+SD_API sd_status sd_fit_result_weights(const sd_fit_result* result, int32_t vertex_count,
+                                       int32_t sweep_slots, int32_t* sweep_ids,
+                                       float* sweep_weights, int32_t bone_slots,
+                                       int32_t* bone_ids, float* bone_weights);
+/*
+ * The fitting report, JSON text (UTF-8), valid until the result is destroyed ("" for NULL):
+ * mesh statistics (components, border edges, non-manifold faces), the body axes, per chain
+ * its kind, bones, sweep index (-1 if it failed, with "error"), and per key ellipse its role,
+ * bone, center, normal, half-axes, the area of the cross-section it was fitted to and of the
+ * ellipse, fit RMS, the share of the section that belonged to the chain, fallbacks and notes;
+ * the regions' counts (vertices bound, blended, rigid) and warnings.
+ */
+SD_API const char* sd_fit_result_report(const sd_fit_result* result);
+
 #ifdef __cplusplus
 }
 #endif

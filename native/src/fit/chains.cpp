@@ -9,16 +9,37 @@ namespace sd::fit {
 
 const char* chain_kind_name(ChainKind kind) {
     switch (kind) {
-        case ChainKind::Torso: return "torso";
-        case ChainKind::Neck: return "neck";
-        case ChainKind::Arm: return "arm";
-        case ChainKind::Leg: return "leg";
-        case ChainKind::Custom: break;
+        case ChainKind::Torso:
+            return "torso";
+        case ChainKind::Neck:
+            return "neck";
+        case ChainKind::Arm:
+            return "arm";
+        case ChainKind::Leg:
+            return "leg";
+        case ChainKind::Custom:
+            break;
     }
     return "custom";
 }
 
 namespace {
+
+/// The bones in an order where each comes after its parent (the skeleton does not promise
+/// parents-first indices).
+std::vector<int> parents_first(const Skeleton& s) {
+    const int B = s.bone_count();
+    std::vector<std::vector<int>> children(B);
+    std::vector<int> order;
+    for (int b = 0; b < B; ++b)
+        if (s.parents[b] >= 0)
+            children[s.parents[b]].push_back(b);
+        else
+            order.push_back(b);
+    for (size_t i = 0; i < order.size(); ++i)
+        for (int c : children[order[i]]) order.push_back(c);
+    return order;
+}
 
 /// Per-bone facts of the rest skeleton used by the rules below.
 struct Tree {
@@ -28,10 +49,12 @@ struct Tree {
     std::vector<double> length;  ///< |tail - head|
     /// Longest geometric path from the bone's head through its subtree (to a tail).
     std::vector<double> reach;
-    std::vector<double> mass;    ///< summed skin weight of the subtree (empty: unknown)
-    double size = 1.0;           ///< diagonal of the heads' and tails' bounding box
+    std::vector<double> mass;  ///< summed skin weight of the subtree (empty: unknown)
+    std::vector<int> order;    ///< every bone after its parent
+    double size = 1.0;         ///< diagonal of the heads' and tails' bounding box
 
-    Tree(const Skeleton& skeleton, const std::vector<double>& bone_mass) : s(skeleton), count(skeleton.bone_count()) {
+    Tree(const Skeleton& skeleton, const std::vector<double>& bone_mass)
+        : s(skeleton), count(skeleton.bone_count()) {
         children.resize(count);
         length.resize(count);
         reach.resize(count);
@@ -43,8 +66,10 @@ struct Tree {
             hi = glm::max(hi, glm::max(s.heads[b], s.tails[b]));
         }
         size = std::max(glm::length(hi - lo), 1e-300);
+        order = parents_first(skeleton);
         if (!bone_mass.empty()) mass = bone_mass;
-        for (int b = count - 1; b >= 0; --b) {  // parents come first: children are done
+        for (auto it = order.rbegin(); it != order.rend(); ++it) {  // children are done first
+            const int b = *it;
             reach[b] = length[b];
             for (int c : children[b]) {
                 reach[b] = std::max(reach[b], glm::length(s.heads[c] - s.heads[b]) + reach[c]);
@@ -139,8 +164,8 @@ int name_side(const std::string& name) {
 }
 
 std::string bone_label(const std::vector<std::string>& names, int b) {
-    return "bone " + std::to_string(b) + (b < static_cast<int>(names.size()) && !names[b].empty()
-                                              ? " '" + names[b] + "'" : std::string());
+    return "bone " + std::to_string(b) +
+           (b < static_cast<int>(names.size()) && !names[b].empty() ? " '" + names[b] + "'" : std::string());
 }
 
 /// Splits a limb's main path into links and end bone: the upper and lower link are the two
@@ -168,7 +193,8 @@ void split_limb(const Tree& t, int root, Chain* chain) {
 
 }  // namespace
 
-ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, const std::vector<double>& bone_mass) {
+ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
+                     const std::vector<double>& bone_mass) {
     const Tree t(s, bone_mass);
     ChainSet out;
     out.size = t.size;
@@ -216,8 +242,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
         legs.resize(2);
     }
     if (legs.size() != 2)
-        throw InvalidInput("automatic chains: expected two legs branching at the hips " + label(hips) + ", found " +
-                           std::to_string(legs.size()) + "; give the chains explicitly");
+        throw InvalidInput("automatic chains: expected two legs branching at the hips " + label(hips) +
+                           ", found " + std::to_string(legs.size()) + "; give the chains explicitly");
 
     const dvec3 hip = s.heads[hips];
     const auto leg_center = [&](int b) {
@@ -243,7 +269,9 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
         double next_ratio = 2.0;
         std::vector<std::pair<int, double>> candidates;
         for (int c : t.children[cur]) {
-            if (!t.real(c)) continue;
+            // Any deforming child may continue the spine (a short head bone too); only
+            // long ones can be arms.
+            if (!(t.mass.empty() ? t.reach[c] >= 0.005 * t.size : t.mass[c] > 0.0)) continue;
             const dvec3 e = t.farthest(c, hip) - hip;
             const double ratio = std::abs(glm::dot(e, lateral)) / std::max(glm::length(e), 1e-300);
             candidates.push_back({c, ratio});
@@ -258,7 +286,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
         cur = next;
     }
     if (arms.size() > 2) {
-        std::sort(arms.begin(), arms.end(), [&](auto& a, auto& b) { return t.reach[a.first] > t.reach[b.first]; });
+        std::sort(arms.begin(), arms.end(),
+                  [&](auto& a, auto& b) { return t.reach[a.first] > t.reach[b.first]; });
         out.notes.push_back("more than two arm-like branches on the spine; kept the two longest");
         arms.resize(2);
     }
@@ -270,7 +299,9 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
     if (!arms.empty()) {
         chest_index = 0;
         for (const auto& a : arms)
-            chest_index = std::max(chest_index, static_cast<int>(std::find(spine.begin(), spine.end(), a.second) - spine.begin()));
+            chest_index =
+                std::max(chest_index,
+                         static_cast<int>(std::find(spine.begin(), spine.end(), a.second) - spine.begin()));
     } else {
         chest_index = std::max(0, static_cast<int>(spine.size()) - 3);
     }
@@ -286,7 +317,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
                 if (bone_mass[rest[i]] > bone_mass[rest[h]]) h = i;
         } else {
             for (int i = 1; i < static_cast<int>(rest.size()); ++i)
-                if (rest[i] < static_cast<int>(names.size()) && lower(names[rest[i]]).find("head") != std::string::npos) {
+                if (rest[i] < static_cast<int>(names.size()) &&
+                    lower(names[rest[i]]).find("head") != std::string::npos) {
                     h = i;
                     break;
                 }
@@ -300,7 +332,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
     dvec3 up = top - hip;
     up -= glm::dot(up, lateral) * lateral;
     if (!(glm::length(up) > 1e-3 * t.size))
-        throw InvalidInput("automatic chains: the spine from " + label(hips) + " does not rise above the hips");
+        throw InvalidInput("automatic chains: the spine from " + label(hips) +
+                           " does not rise above the hips");
     up = glm::normalize(up);
     BodyFrame& frame = out.frame;
     frame.up = up;
@@ -338,7 +371,9 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
     }
     frame.left = glm::normalize(frame.left - glm::dot(frame.left, up) * up);
 
-    const auto side_name = [&](int side) { return !frame.sides_known ? (side > 0 ? "_a" : "_b") : (side > 0 ? "_l" : "_r"); };
+    const auto side_name = [&](int side) {
+        return !frame.sides_known ? (side > 0 ? "_a" : "_b") : (side > 0 ? "_l" : "_r");
+    };
     const auto mirrored_check = [&](const Chain& c) {
         // Names contradicting the geometry are worth a note (mirrored rig, odd naming).
         int vote = 0;
@@ -377,7 +412,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
         c.joint_parent = c.first_swept > 0 ? c.bones[c.first_swept - 1] : attach;
         arm_chains.push_back(c);
     }
-    std::sort(arm_chains.begin(), arm_chains.end(), [](const Chain& a, const Chain& b) { return a.side > b.side; });
+    std::sort(arm_chains.begin(), arm_chains.end(),
+              [](const Chain& a, const Chain& b) { return a.side > b.side; });
     if (arm_chains.size() == 2 && arm_chains[0].side == arm_chains[1].side)
         out.notes.push_back("both arms lie on the same side of the body");
     for (Chain& c : arm_chains) {
@@ -467,9 +503,9 @@ BoneOwners bone_owners(const Skeleton& s, const ChainSet& set) {
             decided[e] = 1;
         }
     }
-    // Everything else follows its parent (parents come first): below a rigid end bone it
+    // Everything else follows its parent (visited parents first): below a rigid end bone it
     // is rigid too, below a link it rides that link's chain.
-    for (int b = 0; b < B; ++b) {
+    for (int b : parents_first(s)) {
         if (decided[b]) continue;
         const int p = s.parents[b];
         if (p < 0) continue;  // an extra root (e.g. a "Root" bone at the origin): rigid

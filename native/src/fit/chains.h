@@ -16,15 +16,15 @@ const char* chain_kind_name(ChainKind kind);
 /// One sweep chain: links from the body outwards.
 struct Chain {
     ChainKind kind = ChainKind::Custom;
-    int side = 0;              ///< +1 the character's left, -1 its right, 0 centre or unknown
-    std::string name;          ///< "torso", "neck", "arm_l", "leg_r", "chain_3", ...
-    std::vector<int> bones;    ///< links; their skin weights go to this chain's sweep
+    int side = 0;            ///< +1 the character's left, -1 its right, 0 centre or unknown
+    std::string name;        ///< "torso", "neck", "arm_l", "leg_r", "chain_3", ...
+    std::vector<int> bones;  ///< links; their skin weights go to this chain's sweep
     /// bones[first_swept] is where the sweep starts: 1 when bones[0] is a clavicle (or a
     /// hip bone) that runs inside the torso, 0 otherwise.
     int first_swept = 0;
-    int end_bone = -1;         ///< the bone beyond the last link (hand, foot, head, neck), or -1
-    int parent_chain = -1;     ///< the chain it hangs from (limbs, neck: the torso), or -1
-    int joint_parent = -1;     ///< upper link of the sweep's first joint (clavicle, pelvis), or -1
+    int end_bone = -1;      ///< the bone beyond the last link (hand, foot, head, neck), or -1
+    int parent_chain = -1;  ///< the chain it hangs from (limbs, neck: the torso), or -1
+    int joint_parent = -1;  ///< upper link of the sweep's first joint (clavicle, pelvis), or -1
 };
 
 /// Body axes found from the skeleton: up from the hips to the head, left from the legs,

@@ -64,34 +64,50 @@ Ellipse2 fit_ellipse_fixed_center(const std::vector<dvec2>& points, const std::v
     if (!(wsum > 0.0) || !(scale > 0.0)) return e;
     scale /= wsum;
 
-    // Normal equations of min Σ w (A x² + 2B xy + C y² − 1)².
-    double n[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, rhs[3] = {0, 0, 0};
-    double sxx = 0, sxy = 0, syy = 0;
-    for (size_t i = 0; i < points.size(); ++i) {
-        const dvec2 q = (points[i] - center) / scale;
-        const double row[3] = {q.x * q.x, 2.0 * q.x * q.y, q.y * q.y};
-        for (int r = 0; r < 3; ++r) {
-            for (int c = 0; c < 3; ++c) n[r][c] += weights[i] * row[r] * row[c];
-            rhs[r] += weights[i] * row[r];
-        }
-        sxx += weights[i] * q.x * q.x;
-        sxy += weights[i] * q.x * q.y;
-        syy += weights[i] * q.y * q.y;
-    }
-    // Cramer's rule on the 3x3 system.
+    // Normal equations of min Σ w (A x² + 2B xy + C y² − 1)², then twice again with each
+    // residual divided by the gradient's length (Sampson's approximation of the geometric
+    // distance), which removes the algebraic fit's bias towards the far points.
     const auto det3 = [](const double m[3][3]) {
         return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
                m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     };
-    const double det = det3(n);
     double coef[3] = {0, 0, 0};
-    bool solved = std::abs(det) > 1e-14 * std::pow(n[0][0] + n[1][1] + n[2][2], 3);
-    for (int k = 0; k < 3 && solved; ++k) {
-        double m[3][3];
-        for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) m[r][c] = c == k ? rhs[r] : n[r][c];
-        coef[k] = det3(m) / det;
+    bool solved = false;
+    double sxx = 0, sxy = 0, syy = 0;
+    for (int pass = 0; pass < 3; ++pass) {
+        double n[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}}, rhs[3] = {0, 0, 0};
+        for (size_t i = 0; i < points.size(); ++i) {
+            const dvec2 q = (points[i] - center) / scale;
+            double w = weights[i];
+            if (pass > 0) {
+                const dvec2 grad(coef[0] * q.x + coef[1] * q.y, coef[1] * q.x + coef[2] * q.y);
+                w /= std::max(glm::dot(grad, grad), 1e-12);
+            }
+            const double row[3] = {q.x * q.x, 2.0 * q.x * q.y, q.y * q.y};
+            for (int r = 0; r < 3; ++r) {
+                for (int c = 0; c < 3; ++c) n[r][c] += w * row[r] * row[c];
+                rhs[r] += w * row[r];
+            }
+            if (pass == 0) {
+                sxx += weights[i] * q.x * q.x;
+                sxy += weights[i] * q.x * q.y;
+                syy += weights[i] * q.y * q.y;
+            }
+        }
+        const double det = det3(n);
+        if (!(std::abs(det) > 1e-14 * std::pow(n[0][0] + n[1][1] + n[2][2], 3))) break;
+        double next[3];
+        for (int k = 0; k < 3; ++k) {
+            double m[3][3];
+            for (int r = 0; r < 3; ++r)
+                for (int c = 0; c < 3; ++c) m[r][c] = c == k ? rhs[r] : n[r][c];
+            next[k] = det3(m) / det;
+        }
+        // Keep only positive definite solutions (an ellipse); otherwise stop refining.
+        if (!(next[0] > 0.0 && next[0] * next[2] - next[1] * next[1] > 0.0)) break;
+        std::copy(next, next + 3, coef);
+        solved = true;
     }
     double l1 = 0, l2 = 0;
     dvec2 e1(1, 0);

@@ -14,7 +14,7 @@ struct Ellipse2 {
     dvec2 center{0.0};
     dvec2 axis{1.0, 0.0};
     double a = 0.0, b = 0.0;
-    double rms = 0.0;   ///< RMS radial distance of the points to the ellipse, plane units
+    double rms = 0.0;  ///< RMS radial distance of the points to the ellipse, plane units
     bool valid = false;
 
     double area() const { return M_PI * a * b; }

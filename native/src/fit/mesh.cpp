@@ -25,9 +25,9 @@ int find_root(std::vector<int32_t>& parent, int x) {
 /// handled and counted here, and a library must not write to the host's stderr.
 class QuietOpenMesh {
 public:
-    QuietOpenMesh() : was_enabled_(OpenMesh::omerr().is_enabled()) { OpenMesh::omerr().disable(); }
+    QuietOpenMesh() : was_enabled_(omerr().is_enabled()) { omerr().disable(); }
     ~QuietOpenMesh() {
-        if (was_enabled_) OpenMesh::omerr().enable();
+        if (was_enabled_) omerr().enable();
     }
     QuietOpenMesh(const QuietOpenMesh&) = delete;
     QuietOpenMesh& operator=(const QuietOpenMesh&) = delete;
@@ -42,8 +42,10 @@ FitMesh::~FitMesh() = default;
 
 FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
     : halfedge_(std::make_unique<HalfEdge>()) {
-    if (V < 3 || V > 50'000'000) throw InvalidInput("vertex count must be in 3..5e7, got " + std::to_string(V));
-    if (T < 1 || T > 100'000'000) throw InvalidInput("triangle count must be in 1..1e8, got " + std::to_string(T));
+    if (V < 3 || V > 50'000'000)
+        throw InvalidInput("vertex count must be in 3..5e7, got " + std::to_string(V));
+    if (T < 1 || T > 100'000'000)
+        throw InvalidInput("triangle count must be in 1..1e8, got " + std::to_string(T));
     if (!positions || !triangles) throw InvalidInput("mesh positions or triangles is NULL");
     positions_.resize(V);
     lo_ = dvec3(std::numeric_limits<double>::infinity());
@@ -51,7 +53,8 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
     for (int v = 0; v < V; ++v) {
         const dvec3 p(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || glm::length(p) > 1e12)
-            throw InvalidInput("mesh vertex " + std::to_string(v) + " has a non-finite or enormous coordinate");
+            throw InvalidInput("mesh vertex " + std::to_string(v) +
+                               " has a non-finite or enormous coordinate");
         positions_[v] = p;
         lo_ = glm::min(lo_, p);
         hi_ = glm::max(hi_, p);
@@ -102,8 +105,10 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
         last = std::unique(first, last);
         ring_.insert(ring_.end(), first, last);
         ring_offsets_[v + 1] = static_cast<int32_t>(ring_.size());
-        if (first == last) ++stats_.unused_vertices;
-        else if (find_root(parent, v) == v) ++stats_.components;
+        if (first == last)
+            ++stats_.unused_vertices;
+        else if (find_root(parent, v) == v)
+            ++stats_.components;
     }
 
     // The half-edge structure for plane cuts.
@@ -112,8 +117,7 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
     m.reserve(static_cast<size_t>(V), static_cast<size_t>(kept) * 3, static_cast<size_t>(kept));
     input.resize(V);
     for (int v = 0; v < V; ++v) {
-        m.add_vertex(OpenMeshTri::Point(static_cast<float>(positions_[v].x), static_cast<float>(positions_[v].y),
-                                        static_cast<float>(positions_[v].z)));
+        m.new_vertex();
         input[v] = v;
     }
     {
@@ -127,7 +131,7 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
             // walk sees a border there and closes the loop over the small gap.
             ++stats_.nonmanifold_faces;
             for (int i = 0; i < 3; ++i) {
-                vh[i] = m.add_vertex(m.point(vh[i]));
+                vh[i] = m.new_vertex();
                 input.push_back(f[i]);
             }
             m.add_face(vh[0], vh[1], vh[2]);

@@ -3,13 +3,14 @@
 
 #include "fit/mesh.h"
 
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
+#include <OpenMesh/Core/Mesh/TriConnectivity.hh>
 
 #include <vector>
 
 namespace sd::fit {
 
-using OpenMeshTri = OpenMesh::TriMesh_ArrayKernelT<>;
+/// Connectivity only: positions stay in FitMesh (double precision).
+using OpenMeshTri = OpenMesh::TriConnectivity;
 
 struct FitMesh::HalfEdge {
     OpenMeshTri mesh;
