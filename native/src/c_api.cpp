@@ -31,6 +31,13 @@ std::vector<sd::KeyEllipse> keys_from_arrays(int32_t K, const float* centers, co
         e.center = sd::dvec3(centers[3 * k], centers[3 * k + 1], centers[3 * k + 2]);
         e.orientation = sd::dquat(orientations[4 * k], orientations[4 * k + 1],
                                   orientations[4 * k + 2], orientations[4 * k + 3]);
+        // Float input is unit only to ~1e-7: accept |q| within 1e-3 of 1, then normalise.
+        const double qn = std::sqrt(glm::dot(e.orientation, e.orientation));
+        if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-3)
+            throw sd::InvalidInput("key ellipse " + std::to_string(k) +
+                                   ": orientation is not a unit quaternion (|q| = " +
+                                   std::to_string(qn) + ")");
+        e.orientation /= qn;
         e.a = half_axes[2 * k];
         e.b = half_axes[2 * k + 1];
         e.bone = bones[k];

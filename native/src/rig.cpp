@@ -19,11 +19,12 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
     for (size_t k = 0; k < keys.size(); ++k) {
         KeyEllipse& e = keys[k];
         if (!finite(e.center)) throw InvalidInput(key_name(k) + ": center is not finite");
+        // Callers normalise (the ABI does, from float input); here it is only checked, so a
+        // rig read back from a blob is bit-for-bit the rig that was saved.
         const double qn = std::sqrt(glm::dot(e.orientation, e.orientation));
-        if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-3)
+        if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-9)
             throw InvalidInput(key_name(k) + ": orientation is not a unit quaternion (|q| = " +
                                std::to_string(qn) + ")");
-        e.orientation = e.orientation / qn;
         if (!(e.a > 0.0) || !(e.b > 0.0) || !std::isfinite(e.a) || !std::isfinite(e.b))
             throw InvalidInput(key_name(k) + ": half-axes must be finite and > 0");
         if (e.bone < 0 || e.bone >= B)

@@ -1,0 +1,126 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Every application handler of the add-on, in one place.
+
+When offsets are written (measured in Blender 4.3 and 5.2, see docs/addon.md):
+
+* ``depsgraph_update_post(scene, depsgraph)`` — interactive posing (incl. IK, constraints,
+  drivers), property changes, undo. It does not fire during renders.
+* ``frame_change_post(scene, depsgraph)`` — playback, ``frame_set``, F12 and ``blender -b -a``.
+  In a render its ``depsgraph`` is the render depsgraph, so the pose is the one being rendered;
+  a write there is picked up by that very frame's render.
+
+No feedback loop: a write tags the mesh, and Blender evaluates it again in a second pass of
+the same update *without* calling the handlers again; and :func:`runtime.evaluate` writes
+only when the evaluated pose (or a setting) differs from what it last wrote. The node group
+does not depend on the armature, so a pose change evaluates the mesh once, after the write.
+
+``load_post`` / ``undo_post`` / ``redo_post`` drop the native objects (re-created lazily from
+the blobs in the file) and check the meshes' topology against the binding's fingerprint.
+"""
+
+import bpy
+from bpy.app.handlers import persistent
+
+from . import modifier, runtime
+
+#: Object name → mode seen last (a full topology check runs when an object leaves Edit Mode).
+_modes = {}
+#: Errors already printed (a broken character must not flood the console on every update).
+_reported = set()
+
+
+def _tag_properties_redraw():
+    wm = bpy.context.window_manager
+    if wm is None:
+        return
+    for window in wm.windows:
+        for area in window.screen.areas:
+            if area.type == 'PROPERTIES':
+                area.tag_redraw()
+
+
+def evaluate_scene(scene, depsgraph, render=False):
+    """Updates every bound character of the scene. Returns how many were rewritten."""
+    written = 0
+    for obj in runtime.bound_objects(scene):
+        mode = obj.mode
+        if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
+            runtime.check_topology(obj)
+        _modes[obj.name] = mode
+        arm = obj.sweep_deform.armature
+        if arm is not None:
+            key = ("armature", arm.name)
+            if _modes.get(key) == 'EDIT' and arm.mode != 'EDIT':
+                runtime.forget_armature(arm)
+            _modes[key] = arm.mode
+        if render and obj.hide_render:
+            continue
+        try:
+            written += runtime.evaluate(obj, depsgraph, render)
+        except ReferenceError:
+            continue
+        except Exception as e:  # never let one character stop the others, or the frame
+            message = f"Sweep Deform: '{obj.name}': {type(e).__name__}: {e}"
+            if message not in _reported:
+                _reported.add(message)
+                import traceback
+                traceback.print_exc()
+                print(message)
+    return written
+
+
+@persistent
+def on_depsgraph_update_post(scene, depsgraph=None):
+    if depsgraph is None:
+        return
+    if evaluate_scene(scene, depsgraph, render=depsgraph.mode == 'RENDER') and not bpy.app.background:
+        _tag_properties_redraw()
+
+
+@persistent
+def on_frame_change_post(scene, depsgraph=None):
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    render = depsgraph.mode == 'RENDER'
+    evaluate_scene(scene, depsgraph, render=render)
+
+
+@persistent
+def on_load_post(*_args):
+    runtime.clear()
+    _modes.clear()
+    if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
+        modifier.node_group()  # bring an older layout up to date
+    for scene in bpy.data.scenes:
+        for obj in runtime.bound_objects(scene):
+            if obj.sweep_deform.state == 'BOUND':
+                runtime.check_topology(obj)
+
+
+@persistent
+def on_undo_redo_post(*_args):
+    runtime.clear()
+
+
+_HANDLERS = (
+    (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
+    (bpy.app.handlers.frame_change_post, on_frame_change_post),
+    (bpy.app.handlers.load_post, on_load_post),
+    (bpy.app.handlers.undo_post, on_undo_redo_post),
+    (bpy.app.handlers.redo_post, on_undo_redo_post),
+)
+
+
+def register():
+    unregister()
+    for handlers, fn in _HANDLERS:
+        handlers.append(fn)
+
+
+def unregister():
+    for handlers, fn in _HANDLERS:
+        # Match by name too: a reloaded module brings new function objects.
+        for h in [h for h in handlers if h is fn or getattr(h, "__qualname__", None) == fn.__qualname__
+                  and getattr(h, "__module__", None) == fn.__module__]:
+            handlers.remove(h)
+    runtime.clear()

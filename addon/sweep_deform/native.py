@@ -1,0 +1,573 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""ctypes binding of libsweepdeform (``native/include/sweepdeform/sweepdeform.h``).
+
+This module imports no ``bpy``. It
+
+* finds the library in the extension's ``lib/`` folder and loads it by its exact, versioned
+  file name (``libsweepdeform.so.<version>``). ``ctypes`` never unloads a library, and the
+  dynamic loader hands out the cached handle for a path it has already opened, so a newer
+  add-on must bring a file with another name: the version in the name guarantees it;
+* declares ``argtypes`` and ``restype`` of every function of the ABI (:data:`SIGNATURES`; a
+  test compares the table with the header), arrays as :func:`_array` parameters that refuse
+  the wrong dtype or a non-contiguous buffer instead of letting C read garbage;
+* refuses a library of another ABI version with a message that says what was found;
+* wraps the opaque handles in small classes (:class:`Rig`, :class:`Binding`,
+  :class:`Deformer`) that take and return numpy arrays (float32 / int32, the ABI's types),
+  check every buffer size before C sees it, and raise :class:`NativeError` with the
+  library's own message on failure.
+
+The environment variable ``SWEEPDEFORM_LIBRARY`` may name another library file (development).
+"""
+
+import ctypes
+import os
+
+import numpy as np
+
+#: The library file name this add-on version ships and loads (never the bare SONAME).
+LIBRARY_FILE = "libsweepdeform.so.0.1.0"
+#: The ``SD_ABI_VERSION`` this binding was written against.
+ABI_VERSION = 1
+
+SD_OK = 0
+STATUS_NAMES = {
+    0: "SD_OK",
+    1: "SD_ERR_INVALID_ARGUMENT",
+    2: "SD_ERR_CORRUPT_DATA",
+    3: "SD_ERR_OUT_OF_MEMORY",
+    4: "SD_ERR_MISMATCH",
+    5: "SD_ERR_INTERNAL",
+}
+
+
+class NativeLibraryError(RuntimeError):
+    """The library is missing, cannot be loaded, or is of another ABI version."""
+
+
+class NativeError(RuntimeError):
+    """A library call failed; ``status`` is the sd_status, the message is sd_last_error()."""
+
+    def __init__(self, function, status, message):
+        self.function = function
+        self.status = status
+        super().__init__(f"{function}: {STATUS_NAMES.get(status, status)}: {message}")
+
+
+# ---- argument types ---------------------------------------------------------------------
+
+
+class _Opaque(ctypes.Structure):
+    pass
+
+
+class _RigT(_Opaque):
+    pass
+
+
+class _BindingT(_Opaque):
+    pass
+
+
+class _DeformerT(_Opaque):
+    pass
+
+
+class _FitResultT(_Opaque):
+    pass
+
+
+RigP = ctypes.POINTER(_RigT)
+BindingP = ctypes.POINTER(_BindingT)
+DeformerP = ctypes.POINTER(_DeformerT)
+FitResultP = ctypes.POINTER(_FitResultT)
+
+_array_types = {}
+
+
+def _array(dtype, writable=False):
+    """A ctypes parameter type for a C-contiguous numpy array of `dtype`, or None (NULL)."""
+    dtype = np.dtype(dtype)
+    key = (dtype.str, writable)
+    if key in _array_types:
+        return _array_types[key]
+
+    class ArrayParam:
+        @classmethod
+        def from_param(cls, obj):
+            if obj is None:
+                return None
+            if not isinstance(obj, np.ndarray):
+                raise TypeError(f"expected a numpy array of {dtype}, got {type(obj).__name__}")
+            if obj.dtype != dtype:
+                raise TypeError(f"expected dtype {dtype}, got {obj.dtype}")
+            if not obj.flags.c_contiguous:
+                raise TypeError("array must be C-contiguous")
+            if writable and not obj.flags.writeable:
+                raise TypeError("output array is read-only")
+            return ctypes.c_void_p(obj.ctypes.data)
+
+    ArrayParam.__name__ = f"array_{dtype.name}{'_out' if writable else ''}"
+    _array_types[key] = ArrayParam
+    return ArrayParam
+
+
+F32 = _array(np.float32)
+F32_OUT = _array(np.float32, writable=True)
+F64_OUT = _array(np.float64, writable=True)
+I32 = _array(np.int32)
+I32_OUT = _array(np.int32, writable=True)
+U8 = _array(np.uint8)
+U8_OUT = _array(np.uint8, writable=True)
+
+c_int32, c_int64, c_float, c_char_p = ctypes.c_int32, ctypes.c_int64, ctypes.c_float, ctypes.c_char_p
+P_INT32 = ctypes.POINTER(ctypes.c_int32)
+P_INT64 = ctypes.POINTER(ctypes.c_int64)
+P_DOUBLE = ctypes.POINTER(ctypes.c_double)
+Status = ctypes.c_int  # sd_status is a C enum (int)
+
+#: name -> (restype, argtypes, required). Every SD_API function of the header is here;
+#: ``required=False`` marks functions of a newer part of the ABI that an older build may lack.
+SIGNATURES = {
+    # library
+    "sd_abi_version": (c_int32, [], True),
+    "sd_library_version": (c_char_p, [], True),
+    "sd_last_error": (c_char_p, [], True),
+    # rig
+    "sd_rig_create": (Status, [c_int32, I32, F32, F32, F32, ctypes.POINTER(RigP)], True),
+    "sd_rig_destroy": (None, [RigP], True),
+    "sd_rig_clone": (Status, [RigP, ctypes.POINTER(RigP)], True),
+    "sd_rig_add_sweep": (Status, [RigP, c_int32, F32, F32, F32, I32, I32, F32, P_INT32], True),
+    "sd_rig_bone_count": (c_int32, [RigP], True),
+    "sd_rig_sweep_count": (c_int32, [RigP], True),
+    "sd_rig_key_count": (c_int32, [RigP, c_int32], True),
+    "sd_rig_get_keys": (Status, [RigP, c_int32, F32_OUT, F32_OUT, F32_OUT, I32_OUT, I32_OUT, F32_OUT], True),
+    "sd_rig_sweep_rest_volume": (Status, [RigP, c_int32, P_DOUBLE], True),
+    "sd_rig_evaluate_sweep": (Status, [RigP, c_int32, c_int32, F32, F32_OUT, F32_OUT, F32_OUT, F32_OUT, F32_OUT], True),
+    "sd_rig_serialize": (Status, [RigP, U8_OUT, c_int64, P_INT64], True),
+    "sd_rig_deserialize": (Status, [U8, c_int64, ctypes.POINTER(RigP)], True),
+    # binding
+    "sd_bind": (Status, [RigP, c_int32, F32, c_int32, I32, F32, c_int32, I32, F32, ctypes.POINTER(BindingP)], True),
+    "sd_binding_destroy": (None, [BindingP], True),
+    "sd_binding_vertex_count": (c_int32, [BindingP], True),
+    "sd_binding_get_parameters": (Status, [BindingP, c_int32, I32_OUT, F32_OUT, F32_OUT], True),
+    "sd_binding_serialize": (Status, [BindingP, U8_OUT, c_int64, P_INT64], True),
+    "sd_binding_deserialize": (Status, [U8, c_int64, ctypes.POINTER(BindingP)], True),
+    # deformation
+    "sd_deformer_create": (Status, [RigP, BindingP, ctypes.POINTER(DeformerP)], True),
+    "sd_deformer_destroy": (None, [DeformerP], True),
+    "sd_deformer_set_volume_preservation": (Status, [DeformerP, c_int32, c_float], True),
+    "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32], True),
+    "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT], True),
+    "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT], True),
+    "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT], True),
+    # automatic fitting
+    "sd_fit_rig": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, F32, F32, F32,
+                            ctypes.POINTER(c_char_p), c_int32, I32, F32, c_int32, c_int32, I32, I32,
+                            ctypes.POINTER(FitResultP)], True),
+    "sd_fit_result_destroy": (None, [FitResultP], True),
+    "sd_fit_result_rig": (Status, [FitResultP, ctypes.POINTER(RigP)], True),
+    "sd_fit_result_slot_counts": (Status, [FitResultP, P_INT32, P_INT32], True),
+    "sd_fit_result_weights": (Status, [FitResultP, c_int32, c_int32, I32_OUT, F32_OUT, c_int32, I32_OUT, F32_OUT], True),
+    "sd_fit_result_report": (c_char_p, [FitResultP], True),
+}
+
+
+# ---- loading ----------------------------------------------------------------------------
+
+_lib = None
+_load_error = None
+
+
+def library_path():
+    """Where the library is expected: $SWEEPDEFORM_LIBRARY, else <extension>/lib/LIBRARY_FILE."""
+    override = os.environ.get("SWEEPDEFORM_LIBRARY")
+    if override:
+        return override
+    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib", LIBRARY_FILE)
+
+
+def _load():
+    path = library_path()
+    if not os.path.isfile(path):
+        raise NativeLibraryError(
+            f"Sweep Deform's native library is missing: {path} does not exist. "
+            "Reinstall the extension from a complete sweep_deform-<version>.zip.")
+    try:
+        # Never closed: ctypes keeps the handle for the life of the process.
+        lib = ctypes.CDLL(path, mode=ctypes.RTLD_LOCAL)
+    except OSError as e:
+        raise NativeLibraryError(f"Sweep Deform could not load {path}: {e}") from e
+    try:
+        lib.sd_abi_version.restype = c_int32
+        lib.sd_abi_version.argtypes = []
+        found = lib.sd_abi_version()
+    except AttributeError as e:
+        raise NativeLibraryError(f"{path} is not a libsweepdeform (no sd_abi_version)") from e
+    if found != ABI_VERSION:
+        raise NativeLibraryError(
+            f"{path} has ABI version {found}, this add-on needs {ABI_VERSION}: "
+            "the add-on and its library are from different builds.")
+    missing = []
+    for name, (restype, argtypes, required) in SIGNATURES.items():
+        try:
+            fn = getattr(lib, name)
+        except AttributeError:
+            if required:
+                missing.append(name)
+            continue
+        fn.restype = restype
+        fn.argtypes = argtypes
+    if missing:
+        raise NativeLibraryError(f"{path} lacks functions of ABI {ABI_VERSION}: {', '.join(missing)}")
+    return lib
+
+
+def library():
+    """The loaded library; raises NativeLibraryError (the same one every time) if unusable."""
+    global _lib, _load_error
+    if _lib is not None:
+        return _lib
+    if _load_error is not None:
+        raise _load_error
+    try:
+        _lib = _load()
+    except NativeLibraryError as e:
+        _load_error = e
+        raise
+    return _lib
+
+
+def available():
+    """(True, version text) or (False, the reason) without raising."""
+    try:
+        lib = library()
+    except NativeLibraryError as e:
+        return False, str(e)
+    return True, lib.sd_library_version().decode()
+
+
+def has_function(name):
+    """Whether the loaded library exports `name` (for optional parts of the ABI)."""
+    return hasattr(library(), name)
+
+
+def _check(name, status):
+    if status != SD_OK:
+        message = library().sd_last_error().decode("utf-8", "replace")
+        raise NativeError(name, status, message)
+
+
+def _call(name, *args):
+    _check(name, getattr(library(), name)(*args))
+
+
+def _f32(a):
+    return np.ascontiguousarray(a, dtype=np.float32)
+
+
+def _i32(a):
+    return np.ascontiguousarray(a, dtype=np.int32)
+
+
+def _expect_size(what, array, size):
+    if array.size != size:
+        raise ValueError(f"{what} has {array.size} values, {size} expected")
+
+
+def abi_version():
+    return int(library().sd_abi_version())
+
+
+def library_version():
+    return library().sd_library_version().decode()
+
+
+# ---- handles ----------------------------------------------------------------------------
+
+
+class _Handle:
+    _destroy = None
+
+    def __init__(self, ptr):
+        self._ptr = ptr
+
+    @property
+    def ptr(self):
+        if not self._ptr:
+            raise ValueError(f"{type(self).__name__} was closed")
+        return self._ptr
+
+    def close(self):
+        if self._ptr:
+            getattr(library(), self._destroy)(self._ptr)
+            self._ptr = None
+
+    def __del__(self):
+        try:
+            self.close()
+        except Exception:
+            pass
+
+
+class Rig(_Handle):
+    """Skeleton + sweeps of key ellipses, in armature space (rest pose)."""
+
+    _destroy = "sd_rig_destroy"
+
+    @classmethod
+    def create(cls, parents, rest, heads, tails):
+        """parents #B int, rest #B*16 column-major, heads/tails #B*3."""
+        parents, rest, heads, tails = _i32(parents).ravel(), _f32(rest).ravel(), _f32(heads).ravel(), _f32(tails).ravel()
+        B = parents.size
+        _expect_size("rest", rest, 16 * B)
+        _expect_size("heads", heads, 3 * B)
+        _expect_size("tails", tails, 3 * B)
+        out = RigP()
+        _call("sd_rig_create", B, parents, rest, heads, tails, ctypes.byref(out))
+        return cls(out)
+
+    @classmethod
+    def deserialize(cls, blob):
+        data = np.frombuffer(bytes(blob), dtype=np.uint8)
+        out = RigP()
+        _call("sd_rig_deserialize", data if data.size else np.zeros(1, np.uint8), data.size, ctypes.byref(out))
+        return cls(out)
+
+    def clone(self):
+        out = RigP()
+        _call("sd_rig_clone", self.ptr, ctypes.byref(out))
+        return Rig(out)
+
+    def add_sweep(self, centers, orientations, half_axes, bones, joint_parents, fractions):
+        """Keys: centers #K*3, orientations #K*4 (w,x,y,z), half_axes #K*2, bones #K,
+        joint_parents #K, fractions #K*2. Returns the sweep index."""
+        bones = _i32(bones).ravel()
+        K = bones.size
+        arrays = dict(centers=(_f32(centers).ravel(), 3), orientations=(_f32(orientations).ravel(), 4),
+                      half_axes=(_f32(half_axes).ravel(), 2), fractions=(_f32(fractions).ravel(), 2))
+        for name, (a, n) in arrays.items():
+            _expect_size(name, a, n * K)
+        joint_parents = _i32(joint_parents).ravel()
+        _expect_size("joint_parents", joint_parents, K)
+        index = ctypes.c_int32(-1)
+        _call("sd_rig_add_sweep", self.ptr, K, arrays["centers"][0], arrays["orientations"][0],
+              arrays["half_axes"][0], bones, joint_parents, arrays["fractions"][0], ctypes.byref(index))
+        return index.value
+
+    @property
+    def bone_count(self):
+        return int(library().sd_rig_bone_count(self.ptr))
+
+    @property
+    def sweep_count(self):
+        return int(library().sd_rig_sweep_count(self.ptr))
+
+    def key_count(self, sweep):
+        n = library().sd_rig_key_count(self.ptr, sweep)
+        if n < 0:
+            _check("sd_rig_key_count", 1)
+        return int(n)
+
+    def keys(self, sweep):
+        """The key ellipses of a sweep as a dict of arrays."""
+        K = self.key_count(sweep)
+        out = dict(centers=np.empty((K, 3), np.float32), orientations=np.empty((K, 4), np.float32),
+                   half_axes=np.empty((K, 2), np.float32), bones=np.empty(K, np.int32),
+                   joint_parents=np.empty(K, np.int32), fractions=np.empty((K, 2), np.float32))
+        _call("sd_rig_get_keys", self.ptr, sweep, out["centers"], out["orientations"], out["half_axes"],
+              out["bones"], out["joint_parents"], out["fractions"])
+        return out
+
+    def rest_volume(self, sweep):
+        v = ctypes.c_double()
+        _call("sd_rig_sweep_rest_volume", self.ptr, sweep, ctypes.byref(v))
+        return v.value
+
+    def evaluate_sweep(self, sweep, u):
+        """Rest-pose sweep at parameters u in [0,1]: centers, tangents, normals, rotations, half_axes."""
+        u = _f32(u).ravel()
+        n = u.size
+        out = dict(centers=np.empty((n, 3), np.float32), tangents=np.empty((n, 3), np.float32),
+                   normals=np.empty((n, 3), np.float32), rotations=np.empty((n, 9), np.float32),
+                   half_axes=np.empty((n, 2), np.float32))
+        _call("sd_rig_evaluate_sweep", self.ptr, sweep, n, u, out["centers"], out["tangents"],
+              out["normals"], out["rotations"], out["half_axes"])
+        return out
+
+    def serialize(self):
+        return _serialize("sd_rig_serialize", self.ptr)
+
+
+def _serialize(name, ptr):
+    size = ctypes.c_int64()
+    _call(name, ptr, None, 0, ctypes.byref(size))
+    buf = np.empty(size.value, np.uint8)
+    _call(name, ptr, buf, size.value, ctypes.byref(size))
+    return buf.tobytes()
+
+
+class Binding(_Handle):
+    """Per-vertex binding of one mesh to one rig."""
+
+    _destroy = "sd_binding_destroy"
+
+    @classmethod
+    def bind(cls, rig, positions, sweep_ids, sweep_weights, bone_ids, bone_weights):
+        """positions (V,3) armature space; sweep_ids/weights (V,S); bone_ids/weights (V,K)."""
+        positions = _f32(positions).reshape(-1)
+        V = positions.size // 3
+        _expect_size("positions", positions, 3 * V)
+        sweep_ids, sweep_weights = _i32(sweep_ids).reshape(V, -1), _f32(sweep_weights).reshape(V, -1)
+        bone_ids, bone_weights = _i32(bone_ids).reshape(V, -1), _f32(bone_weights).reshape(V, -1)
+        if sweep_ids.shape != sweep_weights.shape or bone_ids.shape != bone_weights.shape:
+            raise ValueError("ids and weights must have the same shape")
+        out = BindingP()
+        _call("sd_bind", rig.ptr, V, positions, sweep_ids.shape[1], sweep_ids, sweep_weights,
+              bone_ids.shape[1], bone_ids, bone_weights, ctypes.byref(out))
+        return cls(out)
+
+    @classmethod
+    def deserialize(cls, blob):
+        data = np.frombuffer(bytes(blob), dtype=np.uint8)
+        out = BindingP()
+        _call("sd_binding_deserialize", data if data.size else np.zeros(1, np.uint8), data.size, ctypes.byref(out))
+        return cls(out)
+
+    @property
+    def vertex_count(self):
+        return int(library().sd_binding_vertex_count(self.ptr))
+
+    def parameters(self):
+        """(sweep #V int32, t #V, theta #V) of each vertex's heaviest sweep influence."""
+        V = self.vertex_count
+        sweep, t, theta = np.empty(V, np.int32), np.empty(V, np.float32), np.empty(V, np.float32)
+        _call("sd_binding_get_parameters", self.ptr, V, sweep, t, theta)
+        return sweep, t, theta
+
+    def serialize(self):
+        return _serialize("sd_binding_serialize", self.ptr)
+
+
+class Deformer(_Handle):
+    """A rig + binding + per-frame state. Owns its output buffer: no allocation per frame."""
+
+    _destroy = "sd_deformer_destroy"
+
+    def __init__(self, rig, binding):
+        out = DeformerP()
+        _call("sd_deformer_create", rig.ptr, binding.ptr, ctypes.byref(out))
+        super().__init__(out)
+        self.bone_count = rig.bone_count
+        self.sweep_count = rig.sweep_count
+        self.vertex_count = binding.vertex_count
+        self.positions = np.empty((self.vertex_count, 3), np.float32)
+        self._rest = np.empty(self.sweep_count, np.float64)
+        self._before = np.empty(self.sweep_count, np.float64)
+        self._after = np.empty(self.sweep_count, np.float64)
+
+    def set_volume_preservation(self, enabled, strength=1.0):
+        _call("sd_deformer_set_volume_preservation", self.ptr, 1 if enabled else 0, float(strength))
+
+    def set_volume_offsets(self, offsets):
+        offsets = _f32(offsets).ravel()
+        _expect_size("volume offsets", offsets, self.sweep_count)
+        _call("sd_deformer_set_volume_offsets", self.ptr, self.sweep_count, offsets)
+
+    def deform(self, pose, out=None):
+        """pose: #B*16 float32 column-major armature-space matrices. Returns (V,3) float32
+        (`out` if given, else the deformer's own buffer, overwritten by the next call)."""
+        if pose.dtype != np.float32 or pose.size != 16 * self.bone_count:
+            raise ValueError(f"pose must be {16 * self.bone_count} float32 values")
+        if out is None:
+            out = self.positions
+        elif out.size != 3 * self.vertex_count:
+            raise ValueError(f"out must hold {3 * self.vertex_count} float32 values")
+        _call("sd_deform", self.ptr, self.bone_count, np.ascontiguousarray(pose), self.vertex_count, out)
+        return out
+
+    def volumes(self):
+        """(rest, before, after) float64 #S of the last frame."""
+        _call("sd_deformer_get_volumes", self.ptr, self.sweep_count, self._rest, self._before, self._after)
+        return self._rest.copy(), self._before.copy(), self._after.copy()
+
+    def volume_iterations(self):
+        it = np.empty(self.sweep_count, np.int32)
+        _call("sd_deformer_get_volume_iterations", self.ptr, self.sweep_count, it)
+        return it
+
+
+# ---- automatic fitting ----------------------------------------------------------------
+
+
+class FitResult(_Handle):
+    """Result of :func:`fit_rig`: the rig, the weights for :meth:`Binding.bind`, a report."""
+
+    _destroy = "sd_fit_result_destroy"
+
+    def __init__(self, ptr, vertex_count):
+        super().__init__(ptr)
+        self.vertex_count = vertex_count
+
+    def rig(self):
+        out = RigP()
+        _call("sd_fit_result_rig", self.ptr, ctypes.byref(out))
+        return Rig(out)
+
+    def slot_counts(self):
+        s, k = ctypes.c_int32(), ctypes.c_int32()
+        _call("sd_fit_result_slot_counts", self.ptr, ctypes.byref(s), ctypes.byref(k))
+        return s.value, k.value
+
+    def weights(self):
+        """(sweep_ids, sweep_weights, bone_ids, bone_weights), (V, slots) arrays."""
+        S, K = self.slot_counts()
+        V = self.vertex_count
+        sid, sw = np.empty((V, S), np.int32), np.empty((V, S), np.float32)
+        bid, bw = np.empty((V, K), np.int32), np.empty((V, K), np.float32)
+        _call("sd_fit_result_weights", self.ptr, V, S, sid, sw, K, bid, bw)
+        return sid, sw, bid, bw
+
+    def report(self):
+        """The fitting report (JSON text)."""
+        text = library().sd_fit_result_report(self.ptr)
+        return text.decode("utf-8", "replace") if text else ""
+
+
+def fit_rig(positions, triangles, parents, rest, heads, tails, bone_names=None,
+            skin_bones=None, skin_weights=None, keys_per_link=2, chains=None):
+    """Fits a sweep rig to a rigged mesh (sd_fit_rig); everything in armature space.
+
+    positions (V,3); triangles (T,3) int; parents #B; rest #B*16; heads, tails (B,3);
+    bone_names #B str or None; skin_bones/skin_weights (V,S) or None; chains: None (found
+    automatically) or a list of bone-index lists, from the body outwards."""
+    positions = _f32(positions).reshape(-1)
+    V = positions.size // 3
+    triangles = _i32(triangles).reshape(-1)
+    T = triangles.size // 3
+    parents, rest, heads, tails = _i32(parents).ravel(), _f32(rest).ravel(), _f32(heads).ravel(), _f32(tails).ravel()
+    B = parents.size
+    _expect_size("rest", rest, 16 * B)
+    _expect_size("heads", heads, 3 * B)
+    _expect_size("tails", tails, 3 * B)
+    names = None
+    if bone_names is not None:
+        if len(bone_names) != B:
+            raise ValueError(f"{len(bone_names)} bone names for {B} bones")
+        names = (c_char_p * B)(*[n.encode("utf-8") for n in bone_names])
+    if skin_bones is None:
+        S, skin_bones, skin_weights = 0, None, None
+    else:
+        skin_bones, skin_weights = _i32(skin_bones).reshape(V, -1), _f32(skin_weights).reshape(V, -1)
+        if skin_bones.shape != skin_weights.shape:
+            raise ValueError("skin_bones and skin_weights must have the same shape")
+        S = skin_bones.shape[1]
+    if chains:
+        offsets = _i32(np.concatenate(([0], np.cumsum([len(c) for c in chains]))))
+        chain_bones = _i32(np.concatenate([np.asarray(c, np.int32) for c in chains]))
+        C = len(chains)
+    else:
+        C, offsets, chain_bones = 0, None, None
+    out = FitResultP()
+    _call("sd_fit_rig", V, positions, T, triangles, B, parents, rest, heads, tails, names, S,
+          skin_bones, skin_weights, int(keys_per_link), C, offsets, chain_bones, ctypes.byref(out))
+    return FitResult(out, V)

@@ -1,0 +1,247 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Operators: add the modifier (and bind), bind, unbind. All undoable, all in menus (and so
+in F3 search).
+
+Binding runs in stages (bind.py). Invoked from the interface it is modal: the native stages
+run in a worker thread while a timer updates the progress (``window_manager.progress_*``,
+the status bar) and Esc cancels; nothing in the file changes before the last stage, so a
+cancelled bind leaves no trace. Run from a script (``EXEC_DEFAULT``) it runs the same stages
+at once.
+"""
+
+import threading
+
+import bpy
+from bpy.props import StringProperty
+
+from . import bind, native
+
+_STAGES = {"read": (0, "reading the mesh and skeleton"), "fit": (15, "fitting key ellipses"),
+           "bind": (85, "binding vertices"), "store": (95, "storing the binding")}
+
+
+def _mesh_object(context):
+    obj = context.active_object
+    return obj if obj is not None and obj.type == 'MESH' else None
+
+
+class _Binder:
+    """Shared by the add and bind operators."""
+
+    armature: StringProperty(
+        name="Armature", default="",
+        description="Name of the armature to bind to (default: the mesh's Armature modifier, "
+                    "its Sweep Deform armature, or its parent)")
+
+    _timer = None
+    _thread = None
+
+    @classmethod
+    def poll(cls, context):
+        obj = _mesh_object(context)
+        if obj is None:
+            cls.poll_message_set("The active object must be a mesh")
+            return False
+        if obj.mode == 'EDIT':
+            cls.poll_message_set("Leave Edit Mode first")
+            return False
+        return True
+
+    # -- progress -------------------------------------------------------------------------
+
+    def _progress(self, context, stage):
+        value, text = _STAGES[stage]
+        context.window_manager.progress_update(value)
+        if context.workspace is not None and not bpy.app.background:
+            context.workspace.status_text_set(f"Sweep Deform: {text}… (Esc to cancel)")
+
+    def _end(self, context):
+        context.window_manager.progress_end()
+        if context.workspace is not None and not bpy.app.background:
+            context.workspace.status_text_set(None)
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+
+    def _prepare(self, context):
+        ok, why = native.available()
+        if not ok:
+            self.report({'ERROR'}, why)
+            return None
+        obj = _mesh_object(context)
+        try:
+            arm = bind.find_armature(obj, self.armature)
+        except bind.BindError as e:
+            self.report({'ERROR'}, str(e))
+            return None
+        if arm is None:
+            self.report({'ERROR'}, f"'{obj.name}' has no Armature modifier or armature parent: "
+                                   "give the armature's name")
+            return None
+        return obj, arm
+
+    def _finish(self, context, obj, arm, inp, out):
+        self._progress(context, "store")
+        bind.store(obj, arm, inp, out)
+        for line in bind.report_warnings(out.report):
+            self.report({'WARNING'}, f"Sweep Deform: {line}")
+        s = obj.sweep_deform
+        self.report({'INFO'}, f"Sweep Deform: '{obj.name}' bound to '{arm.name}' "
+                              f"({s.sweep_count} sweeps, {s.vertex_count} vertices)")
+        return {'FINISHED'}
+
+    # -- scripts: all stages now ------------------------------------------------------------
+
+    def execute(self, context):
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {'CANCELLED'}
+        obj, arm = prepared
+        context.window_manager.progress_begin(0, 100)
+        try:
+            self._progress(context, "read")
+            inp = bind.read_inputs(obj, arm)
+            out = bind.fit_and_bind(inp, stage=lambda name: self._progress(context, name))
+            return self._finish(context, obj, arm, inp, out)
+        except (bind.BindError, native.NativeError, native.NativeLibraryError, ValueError) as e:
+            self.report({'ERROR'}, f"Sweep Deform: {e}")
+            return {'CANCELLED'}
+        finally:
+            self._end(context)
+
+    # -- interface: modal, native stages in a worker thread --------------------------------
+
+    def invoke(self, context, event):
+        prepared = self._prepare(context)
+        if prepared is None:
+            return {'CANCELLED'}
+        self._obj_name, self._arm_name = prepared[0].name, prepared[1].name
+        context.window_manager.progress_begin(0, 100)
+        self._progress(context, "read")
+        try:
+            self._inp = bind.read_inputs(*prepared)
+        except bind.BindError as e:
+            self._end(context)
+            self.report({'ERROR'}, f"Sweep Deform: {e}")
+            return {'CANCELLED'}
+        self._result, self._error, self._stage = None, None, "fit"
+
+        def work(inp=self._inp):
+            try:
+                self._result = bind.fit_and_bind(inp, stage=lambda name: setattr(self, "_stage", name))
+            except Exception as e:  # reported on the main thread
+                self._error = e
+
+        self._thread = threading.Thread(target=work, name="sweep_deform_bind", daemon=True)
+        self._thread.start()
+        self._timer = context.window_manager.event_timer_add(0.1, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        if event.type == 'ESC':
+            self._end(context)
+            self.report({'WARNING'}, "Sweep Deform: binding cancelled")
+            return {'CANCELLED'}  # the worker's result is dropped
+        if event.type != 'TIMER':
+            return {'PASS_THROUGH'}
+        if self._thread.is_alive():
+            self._progress(context, self._stage)
+            return {'RUNNING_MODAL'}
+        self._end(context)
+        if self._error is not None:
+            self.report({'ERROR'}, f"Sweep Deform: {self._error}")
+            return {'CANCELLED'}
+        obj, arm = bpy.data.objects.get(self._obj_name), bpy.data.objects.get(self._arm_name)
+        if obj is None or arm is None:
+            self.report({'ERROR'}, "Sweep Deform: the object or armature went away while binding")
+            return {'CANCELLED'}
+        try:
+            return self._finish(context, obj, arm, self._inp, self._result)
+        except bind.BindError as e:
+            self.report({'ERROR'}, f"Sweep Deform: {e}")
+            return {'CANCELLED'}
+
+
+class OBJECT_OT_sweep_deform_add(_Binder, bpy.types.Operator):
+    """Add a Sweep Deform modifier to the active mesh and bind it to its armature; the
+    Armature modifier it replaces is switched off"""
+    bl_idname = "object.sweep_deform_add"
+    bl_label = "Add Sweep Deform"
+    bl_options = {'REGISTER', 'UNDO'}
+
+
+class OBJECT_OT_sweep_deform_bind(_Binder, bpy.types.Operator):
+    """Bind (or bind again) the active mesh's Sweep Deform modifier to the armature"""
+    bl_idname = "object.sweep_deform_bind"
+    bl_label = "Bind Sweep Deform"
+    bl_options = {'REGISTER', 'UNDO'}
+
+
+class OBJECT_OT_sweep_deform_unbind(bpy.types.Operator):
+    """Remove the active mesh's sweep binding (the modifier stays, doing nothing) and give
+    the replaced Armature modifier its deformation back"""
+    bl_idname = "object.sweep_deform_unbind"
+    bl_label = "Unbind Sweep Deform"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = _mesh_object(context)
+        if obj is None or obj.sweep_deform.state == 'UNBOUND':
+            cls.poll_message_set("The active mesh has no sweep binding")
+            return False
+        return True
+
+    def execute(self, context):
+        obj = _mesh_object(context)
+        bind.unbind(obj)
+        self.report({'INFO'}, f"Sweep Deform: '{obj.name}' unbound")
+        return {'FINISHED'}
+
+
+class VIEW3D_MT_sweep_deform(bpy.types.Menu):
+    bl_label = "Sweep Deform"
+    bl_idname = "VIEW3D_MT_sweep_deform"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.operator(OBJECT_OT_sweep_deform_add.bl_idname, icon='MOD_ARMATURE')
+        layout.operator(OBJECT_OT_sweep_deform_bind.bl_idname)
+        layout.operator(OBJECT_OT_sweep_deform_unbind.bl_idname)
+
+
+def _object_menu(self, context):
+    self.layout.separator()
+    self.layout.menu(VIEW3D_MT_sweep_deform.bl_idname)
+
+
+def _modifier_menu(self, context):
+    self.layout.operator(OBJECT_OT_sweep_deform_add.bl_idname, text="Sweep Deform", icon='MOD_ARMATURE')
+
+
+classes = (OBJECT_OT_sweep_deform_add, OBJECT_OT_sweep_deform_bind, OBJECT_OT_sweep_deform_unbind,
+           VIEW3D_MT_sweep_deform)
+
+# The Add Modifier menu's Deform column (Blender 4.0+), else nothing there.
+_MODIFIER_MENUS = ("OBJECT_MT_modifier_add_deform",)
+
+
+def register():
+    for cls in classes:
+        bpy.utils.register_class(cls)
+    bpy.types.VIEW3D_MT_object.append(_object_menu)
+    for name in _MODIFIER_MENUS:
+        menu = getattr(bpy.types, name, None)
+        if menu is not None:
+            menu.append(_modifier_menu)
+
+
+def unregister():
+    for name in _MODIFIER_MENUS:
+        menu = getattr(bpy.types, name, None)
+        if menu is not None:
+            menu.remove(_modifier_menu)
+    bpy.types.VIEW3D_MT_object.remove(_object_menu)
+    for cls in reversed(classes):
+        bpy.utils.unregister_class(cls)

@@ -1,0 +1,124 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What a binding leaves in the .blend, and how it is checked when read back.
+
+* The rig and the binding as the core's own versioned, checksummed blobs (``sd_rig_serialize``,
+  ``sd_binding_serialize``), raw bytes in hidden ID properties of the mesh object
+  (``_sweep_deform_rig``, ``_sweep_deform_binding``; names with "_" stay out of the Custom
+  Properties panel). The binding blob holds the per-vertex parameters (t, θ, displacement,
+  weights) exactly as bound, so a reloaded file deforms bit for bit as before saving, and a
+  damaged blob is refused by the core instead of deforming wrongly.
+* In ``Object.sweep_deform``: the rig's bone names (the pose is gathered by name), the mesh's
+  element counts, a SHA-1 of its connectivity and of its rest positions.
+* Native objects are never saved: the runtime cache re-creates a deformer lazily after load or
+  undo (see runtime.py).
+"""
+
+import numpy as np
+
+from . import native, rig_io
+
+RIG_KEY = "_sweep_deform_rig"
+BINDING_KEY = "_sweep_deform_binding"
+#: The armature's rest matrices at binding (#B*16 float32, rig order): the deformer's rest
+#: reference, and how a later change of the armature's rest pose is noticed.
+REST_POSE_KEY = "_sweep_deform_rest_pose"
+#: The fitting's JSON report (for inspection; not needed to deform).
+REPORT_KEY = "_sweep_deform_fit_report"
+
+
+# ---- reading the mesh -------------------------------------------------------------------
+
+
+def mesh_counts(mesh):
+    return rig_io.topology_counts(len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
+
+
+def mesh_positions(mesh):
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get('co', co)
+    return co.reshape(-1, 3)
+
+
+def topology_fingerprint(mesh):
+    edges = np.empty(len(mesh.edges) * 2, np.int32)
+    mesh.edges.foreach_get('vertices', edges)
+    loops = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get('vertex_index', loops)
+    totals = np.empty(len(mesh.polygons), np.int32)
+    mesh.polygons.foreach_get('loop_total', totals)
+    return rig_io.topology_fingerprint(edges, loops, totals)
+
+
+# ---- storing ----------------------------------------------------------------------------
+
+
+def _put_bytes(obj, key, data):
+    """Stores raw bytes in an ID property. Blender 4.3 and 5.2 cut a bytes property at its
+    first NUL when an existing one is assigned again, so the old one goes first; the length
+    is checked after."""
+    data = bytes(data)
+    if key in obj:
+        del obj[key]
+    obj[key] = data
+    if len(obj[key]) != len(data):
+        raise RuntimeError(f"Blender stored {len(obj[key])} of {len(data)} bytes in '{key}'")
+
+
+def store(obj, rig_blob, binding_blob, bone_names, rest_pose, sweep_count, report=""):
+    """Saves a binding of `obj` (its current mesh is the rest mesh)."""
+    mesh = obj.data
+    s = obj.sweep_deform
+    _put_bytes(obj, RIG_KEY, rig_blob)
+    _put_bytes(obj, BINDING_KEY, binding_blob)
+    _put_bytes(obj, REST_POSE_KEY, np.ascontiguousarray(rest_pose, np.float32).tobytes())
+    obj[REPORT_KEY] = report
+    s.bone_names = rig_io.encode_names(bone_names)
+    s.vertex_count, s.edge_count, s.loop_count, s.polygon_count = mesh_counts(mesh)
+    s.topology = topology_fingerprint(mesh)
+    s.rest_positions = rig_io.positions_fingerprint(mesh_positions(mesh))
+    s.sweep_count = sweep_count
+    s.library_version = native.library_version()
+
+
+def clear(obj):
+    for key in (RIG_KEY, BINDING_KEY, REST_POSE_KEY, REPORT_KEY):
+        if key in obj:
+            del obj[key]
+    s = obj.sweep_deform
+    s.state = 'UNBOUND'
+    s.bind_id = ""
+    s.bone_names = ""
+    s.topology = ""
+    s.rest_positions = ""
+    s.sweep_count = 0
+    s.vertex_count = s.edge_count = s.loop_count = s.polygon_count = 0
+
+
+def has_blobs(obj):
+    return RIG_KEY in obj and BINDING_KEY in obj and REST_POSE_KEY in obj
+
+
+def load(obj):
+    """(Rig, Binding, bone names, rest pose #B*16) from the object; raises native.NativeError
+    (SD_ERR_CORRUPT_DATA) for a damaged blob, KeyError when there is none."""
+    rig = native.Rig.deserialize(bytes(obj[RIG_KEY]))
+    binding = native.Binding.deserialize(bytes(obj[BINDING_KEY]))
+    rest = np.frombuffer(bytes(obj[REST_POSE_KEY]), dtype=np.float32).copy()
+    return rig, binding, rig_io.decode_names(obj.sweep_deform.bone_names), rest
+
+
+# ---- checking ---------------------------------------------------------------------------
+
+
+def counts_match(obj):
+    s = obj.sweep_deform
+    return mesh_counts(obj.data) == [s.vertex_count, s.edge_count, s.loop_count, s.polygon_count]
+
+
+def topology_matches(obj):
+    """Counts first (free), then the connectivity hash."""
+    return counts_match(obj) and topology_fingerprint(obj.data) == obj.sweep_deform.topology
+
+
+def rest_positions_match(obj):
+    return rig_io.positions_fingerprint(mesh_positions(obj.data)) == obj.sweep_deform.rest_positions

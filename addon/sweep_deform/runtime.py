@@ -1,0 +1,277 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""One frame of one character: evaluated pose → core → offsets in the mesh's attribute.
+
+A small cache keeps, per bound object, the native deformer (re-created lazily from the
+object's blobs after load or undo), its buffers (no allocation per frame) and the key of
+the state it last wrote: the pose matrices, the mesh→armature linear map and the volume
+settings. :func:`evaluate` returns at once when that key has not changed, which is what
+keeps the handlers from feeding the depsgraph their own writes back (see handlers.py).
+"""
+
+import numpy as np
+
+from . import modifier, native, persistence, rig_io
+
+_cache = {}
+
+
+class Entry:
+    """The runtime state of one bound object."""
+
+    def __init__(self, obj):
+        self.bind_id = obj.sweep_deform.bind_id
+        self.armature_name = obj.sweep_deform.armature.name if obj.sweep_deform.armature else ""
+        self.error = ""
+        self.deformer = None
+        self.key = None
+        self.settings = None
+        self.labels = []
+        self.frames = 0
+        self.rest_checked = False
+        self.unusable = False
+        self.last_pose = None
+        try:
+            rig, binding, names, rest_pose = persistence.load(obj)
+            self.bone_names = names
+            self.deformer = native.Deformer(rig, binding)
+            self.labels = rig_io.sweep_labels([rig.keys(s)["bones"] for s in range(rig.sweep_count)], names,
+                                              obj.get(persistence.REPORT_KEY, ""))
+            self.rest_pose = rest_pose
+            if rest_pose.size != 16 * self.deformer.bone_count:
+                raise ValueError("the stored rest pose does not match the rig")
+            # The core's own rest shape: offsets are measured from it, so the rest pose gives
+            # exactly zero offsets.
+            self.deformer.set_volume_preservation(False, 0.0)
+            self.rest = self.deformer.deform(rest_pose, np.empty((self.deformer.vertex_count, 3), np.float32))
+            self.pose = np.empty(16 * self.deformer.bone_count, np.float32)
+            self.pose_buffer = None
+            self.order = None
+            self.order_names = None
+            self.offsets = np.empty((self.deformer.vertex_count, 3), np.float32)
+            self.scratch = np.empty((self.deformer.vertex_count, 3), np.float32)
+            self._linear = None
+            self._inverse = None
+        except native.NativeLibraryError as e:
+            # Not the file's fault: the panel says what is wrong with the installation.
+            self.error = str(e)
+            self.deformer = None
+        except (native.NativeError, KeyError, ValueError) as e:
+            # The stored binding cannot be used (damaged blob, bones missing, ...).
+            self.error = str(e)
+            self.deformer = None
+            self.unusable = True
+
+    def to_mesh_space(self, linear):
+        """(3,3) float32 matrix taking armature-space row vectors to mesh space, or None
+        for the identity (the usual case: no scale between mesh and armature)."""
+        if self._linear is None or linear != self._linear:
+            self._linear = linear.copy()
+            m = np.array(linear, dtype=np.float64)
+            self._inverse = None if np.array_equal(m, np.eye(3)) else np.linalg.inv(m).T.astype(np.float32)
+        return self._inverse
+
+    def volumes(self):
+        """(rest, before, after) per sweep of the last frame, or None before the first."""
+        if self.deformer is None or self.frames == 0:
+            return None
+        return self.deformer.volumes()
+
+
+def _key(obj):
+    return (obj.name, obj.sweep_deform.bind_id)
+
+
+def entry(obj):
+    """The object's cache entry, created on first use."""
+    k = _key(obj)
+    e = _cache.get(k)
+    if e is None:
+        e = _cache[k] = Entry(obj)
+    return e
+
+
+def peek(obj):
+    """The entry if one exists (for the panel; never creates one)."""
+    return _cache.get(_key(obj))
+
+
+def forget(obj):
+    for k in [k for k in _cache if k[0] == obj.name]:
+        del _cache[k]
+    bound_changed()
+
+
+def forget_armature(arm):
+    """The armature left Edit Mode: its bound characters check its rest pose again."""
+    for e in _cache.values():
+        if e.armature_name == arm.name:
+            e.rest_checked = False
+
+
+def clear():
+    _cache.clear()
+    _bound.clear()
+    bound_changed()
+
+
+def settings_changed(obj):
+    """A volume setting changed: the next evaluation recomputes (the key includes them)."""
+    e = peek(obj)
+    if e is not None:
+        e.key = None
+
+
+# ---- state changes ---------------------------------------------------------------------
+
+
+def _set_rebind(obj, message):
+    s = obj.sweep_deform
+    if s.state != 'REBIND':
+        s.state = 'REBIND'
+    if s.message != message:
+        s.message = message
+    forget(obj)
+    modifier.clear_offsets(obj.data)
+
+
+def _modifier_gone(obj):
+    """The Sweep Deform modifier left the stack: applied or removed. Either way the binding
+    ends. If the rest positions are untouched it was removed, and the Armature modifier it
+    replaced gets its deformation back; if they changed it was applied (the deformation is in
+    the mesh now), and re-enabling the Armature modifier would deform twice."""
+    from . import bind
+    removed = persistence.rest_positions_match(obj) if persistence.counts_match(obj) else False
+    bind.unbind(obj, restore_armature_modifier=removed)
+
+
+def check_topology(obj):
+    """Full check (connectivity hash); marks the object 'REBIND' on a change. True if fine."""
+    s = obj.sweep_deform
+    if s.state != 'BOUND':
+        return False
+    if not persistence.topology_matches(obj):
+        _set_rebind(obj, "The mesh's topology changed after binding: bind again")
+        return False
+    return True
+
+
+# ---- one frame -------------------------------------------------------------------------
+
+
+def _armature_pose(e, arm_eval):
+    """The evaluated pose in the rig's bone order (#B*16 float32), or raises KeyError."""
+    bones = arm_eval.pose.bones
+    n = len(bones)
+    if e.pose_buffer is None or e.pose_buffer.size != 16 * n:
+        e.pose_buffer = np.empty(16 * n, np.float32)
+        e.order_names = None
+    names = [b.name for b in bones]
+    if names != e.order_names:
+        e.order = rig_io.pose_order(e.bone_names, names)
+        e.order_names = names
+    bones.foreach_get('matrix', e.pose_buffer)
+    return rig_io.gather_pose(e.pose_buffer, e.order, e.pose)
+
+
+def _rest_pose_matches(e, arm):
+    bones = arm.data.bones
+    rest = np.empty(16 * len(bones), np.float32)
+    bones.foreach_get('matrix_local', rest)
+    try:
+        order = rig_io.pose_order(e.bone_names, [b.name for b in bones])
+    except KeyError:
+        return False
+    rest = rig_io.gather_pose(rest, order)
+    return rest.size == e.rest_pose.size and np.allclose(rest, e.rest_pose, rtol=0.0, atol=1e-5)
+
+
+def evaluate(obj, depsgraph, render=False):
+    """Updates the offsets of one bound mesh object for the pose in `depsgraph`.
+    Returns True if it wrote new offsets."""
+    s = obj.sweep_deform
+    if s.state != 'BOUND' or obj.mode == 'EDIT':
+        return False
+    md = modifier.find(obj)
+    if md is None:
+        _modifier_gone(obj)
+        return False
+    if not modifier.active(md, render):
+        return False
+    arm = s.armature
+    if arm is None or arm.mode == 'EDIT':
+        return False
+    if obj.data.users > 1:
+        _set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single user "
+                         "and bind again")
+        return False
+    if not persistence.counts_match(obj):
+        _set_rebind(obj, "The mesh's topology changed after binding: bind again")
+        return False
+    e = entry(obj)
+    if e.deformer is None:
+        if e.unusable:
+            _set_rebind(obj, f"The stored binding cannot be used ({e.error}): bind again")
+        return False
+    if not e.rest_checked:
+        e.rest_checked = True
+        if not _rest_pose_matches(e, arm):
+            _set_rebind(obj, f"The rest pose of '{arm.name}' changed after binding: bind again")
+            return False
+    arm_eval = arm.evaluated_get(depsgraph)
+    obj_eval = obj.evaluated_get(depsgraph)
+    try:
+        pose = _armature_pose(e, arm_eval)
+    except KeyError as err:
+        _set_rebind(obj, f"{err.args[0]}: bind again")
+        return False
+    e.last_pose = pose
+    # Offsets are vectors: only the linear part of mesh → armature space maps them back.
+    linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
+    settings = (bool(s.use_volume_preservation), float(s.volume_strength))
+    key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings)
+    if key == e.key and rig_io.OFFSET_ATTRIBUTE in obj.data.attributes:
+        return False  # already written (an attribute removed by someone else is written again)
+    if settings != e.settings:
+        e.deformer.set_volume_preservation(*settings)
+        e.settings = settings
+    try:
+        deformed = e.deformer.deform(pose)
+    except native.NativeError as err:
+        e.error = str(err)
+        e.key = key
+        return False
+    offsets = rig_io.offsets_into(deformed, e.rest, e.to_mesh_space(linear), e.offsets, e.scratch)
+    modifier.write_offsets(obj.data, offsets)
+    e.key = key
+    e.error = ""
+    e.frames += 1
+    return True
+
+
+_bound = {}      # scene name -> (object count, generation, [object names])
+_generation = 0  # bumped by every bind, unbind, load and undo
+
+
+def bound_changed():
+    """The set of bound objects may have changed (bind, unbind, load, undo)."""
+    global _generation
+    _generation += 1
+
+
+def bound_objects(scene):
+    """Mesh objects of the scene with a binding (any state but UNBOUND). Scanning every
+    object on every depsgraph update would cost a large scene dearly: the list is kept until
+    the scene's object count or the generation changes."""
+    objects = scene.objects
+    cached = _bound.get(scene.name)
+    if cached is None or cached[0] != len(objects) or cached[1] != _generation:
+        names = [o.name for o in objects if o.type == 'MESH' and o.sweep_deform.state != 'UNBOUND']
+        cached = _bound[scene.name] = (len(objects), _generation, names)
+    found = []
+    for name in cached[2]:
+        o = objects.get(name)
+        if o is None or o.type != 'MESH' or o.sweep_deform.state == 'UNBOUND':
+            _bound.pop(scene.name, None)  # renamed or unbound: scan again next time
+            continue
+        found.append(o)
+    return found

@@ -1,0 +1,237 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Characters, poses and measurements shared by the Blender tests."""
+
+import os
+
+import bpy
+import numpy as np
+import pytest
+
+import bone_rig
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(os.path.dirname(HERE))
+SHARED = os.path.normpath(os.path.join(REPO, "..", "shared", "data", "humans"))
+FIXTURES = os.path.join(REPO, "blend_fixtures")
+MODULE = "bl_ext.user_default.sweep_deform"
+
+
+def addon():
+    import importlib
+    return importlib.import_module(MODULE)
+
+
+def sub(name):
+    import importlib
+    return importlib.import_module(f"{MODULE}.{name}")
+
+
+def tmp_dir():
+    d = os.environ.get("SWEEPDEFORM_TEST_TMP") or os.path.join(bpy.app.tempdir or "/tmp", "sweepdeform-tests")
+    os.makedirs(d, exist_ok=True)
+    return d
+
+
+# ---- characters -----------------------------------------------------------------------------
+
+
+class Character:
+    """A loaded character: mesh object name, armature name, elbow/knee bones, test chains."""
+
+    def __init__(self, key, mesh, armature, elbows, knees, chains, shoulders=()):
+        self.key, self.mesh_name, self.armature_name = key, mesh, armature
+        self.elbows, self.knees, self.chains, self.shoulders = elbows, knees, chains, shoulders
+
+    @property
+    def mesh(self):
+        return bpy.data.objects[self.mesh_name]
+
+    @property
+    def armature(self):
+        return bpy.data.objects[self.armature_name]
+
+
+CESIUM_CHAINS = [
+    ("", ["Skeleton_torso_joint_1", "Skeleton_torso_joint_2"], "torso_joint_3"),
+    ("torso_joint_3", ["Skeleton_arm_joint_L__4_", "Skeleton_arm_joint_L__3_"], "Skeleton_arm_joint_L__2_"),
+    ("torso_joint_3", ["Skeleton_arm_joint_R", "Skeleton_arm_joint_R__2_"], "Skeleton_arm_joint_R__3_"),
+    ("Skeleton_torso_joint_1", ["leg_joint_L_1", "leg_joint_L_2"], "leg_joint_L_3"),
+    ("Skeleton_torso_joint_1", ["leg_joint_R_1", "leg_joint_R_2"], "leg_joint_R_3"),
+]
+
+
+def _fixture_path():
+    for name in ("character_light.blend", "character.blend"):
+        p = os.path.join(FIXTURES, name)
+        if os.path.isfile(p):
+            return p
+    return None
+
+
+CHARACTERS = ["fixture", "makehuman", "cesium"]
+
+
+def available(key):
+    if key == "fixture":
+        return _fixture_path() is not None
+    if key == "makehuman":
+        return os.path.isfile(os.path.join(SHARED, "mh_male_game_engine.blend"))
+    if key == "cesium":
+        return os.path.isfile(os.path.join(SHARED, "CesiumMan.glb"))
+    raise KeyError(key)
+
+
+def require(key):
+    if not available(key):
+        where = {"fixture": FIXTURES + "/character*.blend"}.get(key, SHARED)
+        pytest.skip(f"character '{key}' not available ({where} missing)")
+
+
+def load(key):
+    """Opens the character in a fresh file and returns a Character."""
+    require(key)
+    if key == "fixture":
+        bpy.ops.wm.open_mainfile(filepath=_fixture_path())
+        return Character(key, "Body", "Armature", ["forearm.L", "forearm.R"], ["shin.L", "shin.R"],
+                         bone_rig.FIXTURE_CHAINS, ["upper_arm.L", "upper_arm.R"])
+    if key == "makehuman":
+        bpy.ops.wm.open_mainfile(filepath=os.path.join(SHARED, "mh_male_game_engine.blend"))
+        return Character(key, "Body", "Armature", ["lowerarm_l", "lowerarm_r"], ["calf_l", "calf_r"],
+                         bone_rig.MAKEHUMAN_CHAINS, ["upperarm_l", "upperarm_r"])
+    if key == "cesium":
+        bpy.ops.wm.read_homefile(use_empty=True)
+        bpy.ops.import_scene.gltf(filepath=os.path.join(SHARED, "CesiumMan.glb"), bone_heuristic='TEMPERANCE')
+        arm = next(o for o in bpy.data.objects if o.type == 'ARMATURE')
+        if arm.animation_data:
+            arm.animation_data.action = None
+        for pb in arm.pose.bones:
+            pb.matrix_basis.identity()
+        bpy.context.scene.frame_set(1)
+        return Character(key, "Cesium_Man", arm.name, ["Skeleton_arm_joint_L__3_", "Skeleton_arm_joint_R__2_"],
+                         ["leg_joint_L_2", "leg_joint_R_2"], CESIUM_CHAINS,
+                         ["Skeleton_arm_joint_L__4_", "Skeleton_arm_joint_R"])
+    raise KeyError(key)
+
+
+def use_test_rig(chars):
+    """Replaces the add-on's rig maker (the core's fitting) with the bone rig of tests/."""
+    chains = []
+    for c in chars:
+        chains.extend(c.chains)
+    by_bones = {}
+    for start, links, end in chains:
+        by_bones.setdefault(tuple(links), (start, links, end))
+
+    def fitter(inp):
+        names = set(inp.bone_names)
+        mine = [c for c in by_bones.values() if set(c[1]) <= names]
+        return bone_rig.make_bone_rig(inp, mine)
+
+    sub("bind").fitter = fitter
+
+
+def bind(char, use_operator=True):
+    """Binds the character with the test rig (through the operator by default)."""
+    obj = char.mesh
+    bpy.context.view_layer.objects.active = obj
+    for o in bpy.context.selected_objects:
+        o.select_set(False)
+    obj.select_set(True)
+    if use_operator:
+        result = bpy.ops.object.sweep_deform_add()
+        assert result == {'FINISHED'}, result
+    else:
+        sub("bind").bind_object(obj, char.armature)
+    assert obj.sweep_deform.state == 'BOUND'
+    return obj
+
+
+# ---- poses ----------------------------------------------------------------------------------
+
+
+def set_rotation(pb, euler):
+    pb.rotation_mode = 'XYZ'
+    pb.rotation_euler = euler
+
+
+def pose_limbs(char, elbow=1.1, knee=1.0, shoulder=0.0):
+    arm = char.armature
+    for n in char.elbows:
+        set_rotation(arm.pose.bones[n], (elbow, 0.0, 0.0))
+    for n in char.knees:
+        set_rotation(arm.pose.bones[n], (knee, 0.0, 0.0))
+    for n in char.shoulders:
+        set_rotation(arm.pose.bones[n], (shoulder, 0.0, 0.0))
+
+
+def rest_pose(char):
+    for pb in char.armature.pose.bones:
+        pb.matrix_basis.identity()
+
+
+# ---- measurements ---------------------------------------------------------------------------
+
+
+def evaluated_positions(obj, depsgraph=None):
+    dg = depsgraph or bpy.context.evaluated_depsgraph_get()
+    ev = obj.evaluated_get(dg)
+    me = ev.to_mesh()
+    try:
+        co = np.empty(len(me.vertices) * 3, np.float32)
+        me.vertices.foreach_get("co", co)
+        names = set(me.attributes.keys())
+    finally:
+        ev.to_mesh_clear()
+    return co.reshape(-1, 3), names
+
+
+def base_positions(obj):
+    co = np.empty(len(obj.data.vertices) * 3, np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def core_expectation(obj, depsgraph=None):
+    """What the core computes for the evaluated pose, through the add-on's native module but
+    not through its runtime: (expected mesh positions float32 as the add-on must produce
+    them, the core's raw deformed positions mapped to mesh space in float64)."""
+    native, persistence = sub("native"), sub("persistence")
+    s = obj.sweep_deform
+    dg = depsgraph or bpy.context.evaluated_depsgraph_get()
+    rig, binding, names, rest = persistence.load(obj)
+    arm_eval = s.armature.evaluated_get(dg)
+    obj_eval = obj.evaluated_get(dg)
+    pose = np.concatenate([np.array(arm_eval.pose.bones[n].matrix, np.float32).T.ravel() for n in names])
+    d = native.Deformer(rig, binding)
+    d.set_volume_preservation(False, 0.0)
+    rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
+    d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)
+    deformed = d.deform(pose, np.empty((d.vertex_count, 3), np.float32))
+    m = np.array(arm_eval.matrix_world.inverted() @ obj_eval.matrix_world, np.float64)
+    lin = m[:3, :3]
+    offsets = deformed - rest_shape
+    if not np.array_equal(lin, np.eye(3)):
+        offsets = offsets @ np.linalg.inv(lin).T.astype(np.float32)
+    expected = base_positions(obj) + offsets.astype(np.float32)
+    raw = (deformed.astype(np.float64) - m[:3, 3]) @ np.linalg.inv(lin).T
+    return expected, raw
+
+
+def armature_modifier_positions(obj):
+    """Evaluated positions with Blender's Armature modifier instead of Sweep Deform."""
+    s = obj.sweep_deform
+    md_sweep = sub("modifier").find(obj)
+    md_arm = obj.modifiers[s.armature_modifier]
+    saved = (md_sweep.show_viewport, md_arm.show_viewport, md_arm.object)
+    md_sweep.show_viewport, md_arm.show_viewport, md_arm.object = False, True, s.armature
+    try:
+        bpy.context.view_layer.update()
+        co, _ = evaluated_positions(obj)
+    finally:
+        md_sweep.show_viewport, md_arm.show_viewport, md_arm.object = saved
+        bpy.context.view_layer.update()
+    return co
+
+
+def diagonal(points):
+    return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))

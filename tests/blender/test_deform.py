@@ -1,0 +1,344 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Live evaluation: pose elbows and knees through the armature (plain posing, IK, playback)
+and the evaluated mesh is exactly what the core computes."""
+
+import bpy
+import numpy as np
+import pytest
+
+import helpers
+
+
+def check_equals_core(obj, label=""):
+    co, attrs = helpers.evaluated_positions(obj)
+    expected, raw = helpers.core_expectation(obj)
+    assert co.shape == expected.shape
+    # Exactly the add-on's formula: base + offsets (float32, the node group's addition).
+    np.testing.assert_array_equal(co, expected, err_msg=label)
+    # And the core's own positions, back in mesh space (the rest shape round trip of the core
+    # is below 1e-6 of the size).
+    assert np.abs(co - raw).max() <= 2e-5 * helpers.diagonal(raw), label
+    assert "sweep_deform_offset" not in attrs  # the node group removes it from its output
+    return co
+
+
+def test_bind_and_pose_elbows_and_knees(character):
+    helpers.use_test_rig([character])
+    obj = helpers.bind(character)
+    md_names = [m.name for m in obj.modifiers]
+    assert md_names.index("Sweep Deform") < md_names.index(obj.sweep_deform.armature_modifier)
+    arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
+    assert not arm_md.show_viewport and not arm_md.show_render
+    assert arm_md.object is None  # no depsgraph relation to the pose any more
+
+    base = helpers.base_positions(obj)
+    bpy.context.view_layer.update()
+    rest_co, _ = helpers.evaluated_positions(obj)
+    np.testing.assert_array_equal(rest_co, base)  # the rest pose is the rest mesh, exactly
+
+    helpers.pose_limbs(character, elbow=1.2, knee=1.1)
+    bpy.context.view_layer.update()
+    co = check_equals_core(obj, character.key)
+    moved = np.linalg.norm(co - base, axis=1)
+    assert moved.max() > 0.05 * helpers.diagonal(base)
+
+    # Close to Blender's own skinning of the same weights (same skeleton conventions).
+    lbs = helpers.armature_modifier_positions(obj)
+    err = np.linalg.norm(co - lbs, axis=1)
+    diag = helpers.diagonal(base)
+    print(f"{character.key}: {len(base)} vertices, max move {moved.max():.3f}, vs Armature modifier "
+          f"mean {err.mean():.4f} max {err.max():.4f} (diagonal {diag:.3f})")
+    assert err.mean() < 0.01 * diag and err.max() < 0.1 * diag
+
+    # Another pose: rewritten; the same pose again: nothing to do (no feedback loop).
+    helpers.pose_limbs(character, elbow=0.4, knee=0.3)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, character.key + " pose 2")
+    runtime = helpers.sub("runtime")
+    frames = runtime.peek(obj).frames
+    for _ in range(3):
+        bpy.context.view_layer.update()
+    obj.update_tag()
+    bpy.context.view_layer.update()
+    assert runtime.peek(obj).frames == frames
+
+
+def test_volume_settings_and_limb_volumes(character):
+    helpers.use_test_rig([character])
+    obj = helpers.bind(character)
+    helpers.pose_limbs(character, elbow=1.4, knee=1.3)
+    bpy.context.view_layer.update()
+    with_volume = check_equals_core(obj)
+    e = helpers.sub("runtime").peek(obj)
+    rest, before, after = e.volumes()
+    assert len(e.labels) == obj.sweep_deform.sweep_count == len(rest)
+    assert np.all(np.abs(after - rest) <= np.abs(before - rest) + 1e-9 * np.abs(rest))
+    obj.sweep_deform.use_volume_preservation = False
+    bpy.context.view_layer.update()
+    without = check_equals_core(obj)
+    assert not np.array_equal(with_volume, without)
+    obj.sweep_deform.use_volume_preservation = True
+    obj.sweep_deform.volume_strength = 0.5
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+
+
+def test_ik_posing(character):
+    """An IK constraint moves the forearm: the evaluated pose is what counts."""
+    helpers.use_test_rig([character])
+    obj = helpers.bind(character)
+    arm = character.armature
+    target = bpy.data.objects.new("ik_target", None)
+    bpy.context.scene.collection.objects.link(target)
+    elbow = arm.pose.bones[character.elbows[0]]
+    tip = arm.matrix_world @ elbow.tail
+    target.location = tip
+    c = elbow.constraints.new('IK')
+    c.target = target
+    c.chain_count = 2
+    bpy.context.view_layer.update()
+    target.location = tip + (arm.matrix_world.to_3x3() @ (elbow.tail - elbow.head)).normalized() * -0.15
+    target.location.z += 0.1
+    bpy.context.view_layer.update()
+    co = check_equals_core(obj)
+    target.location.x += 0.1
+    bpy.context.view_layer.update()
+    co2 = check_equals_core(obj)
+    assert not np.array_equal(co, co2)
+
+
+def test_playback_frame_by_frame(character):
+    helpers.use_test_rig([character])
+    obj = helpers.bind(character)
+    arm = character.armature
+    scene = bpy.context.scene
+    for frame, angle in ((1, 0.0), (10, 1.2), (20, 0.3)):
+        helpers.pose_limbs(character, elbow=angle, knee=angle)
+        for n in character.elbows + character.knees:
+            arm.pose.bones[n].keyframe_insert("rotation_euler", frame=frame)
+    seen = []
+    for f in (1, 5, 10, 15, 20, 10):
+        scene.frame_set(f)
+        seen.append(check_equals_core(obj, f"frame {f}"))
+    assert not np.array_equal(seen[0], seen[2])
+    np.testing.assert_array_equal(seen[2], seen[5])
+
+
+def test_several_characters_in_one_scene():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj, arm = char.mesh, char.armature
+    # A second character: copies of the armature and mesh, one metre to the side.
+    arm2 = arm.copy()
+    arm2.data = arm.data.copy()
+    arm2.location.x += 1.0
+    obj2 = obj.copy()
+    obj2.data = obj.data.copy()
+    obj2.parent = arm2
+    obj2.modifiers[0].object = arm2
+    for o in (arm2, obj2):
+        bpy.context.scene.collection.objects.link(o)
+    obj2.name, arm2.name = "Body.two", "Armature.two"
+    helpers.bind(char)
+    bpy.context.view_layer.objects.active = obj2
+    assert bpy.ops.object.sweep_deform_add(armature=arm2.name) == {'FINISHED'}
+    assert obj2.sweep_deform.armature == arm2
+    helpers.pose_limbs(char, elbow=1.0, knee=0.2)
+    arm2.pose.bones["lowerarm_l"].rotation_mode = 'XYZ'
+    arm2.pose.bones["lowerarm_l"].rotation_euler = (0.0, 0.0, -0.8)
+    bpy.context.view_layer.update()
+    a = check_equals_core(obj)
+    b = check_equals_core(obj2)
+    assert not np.allclose(a, b)
+
+
+def test_duplicated_character_follows_its_own_armature():
+    """Shift+D on armature and mesh: the copy keeps its binding, points at the new armature
+    and deforms on its own."""
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    for o in bpy.context.selected_objects:
+        o.select_set(False)
+    obj.select_set(True)
+    char.armature.select_set(True)
+    bpy.context.view_layer.objects.active = char.armature
+    assert bpy.ops.object.duplicate() == {'FINISHED'}
+    new_arm = bpy.context.view_layer.objects.active
+    new_obj = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
+    assert new_arm != char.armature and new_obj.sweep_deform.armature == new_arm
+    new_arm.location.x += 1.0
+    helpers.set_rotation(new_arm.pose.bones["lowerarm_l"], (1.2, 0.0, 0.0))
+    helpers.pose_limbs(char, elbow=0.2)
+    bpy.context.view_layer.update()
+    a, b = check_equals_core(obj), check_equals_core(new_obj)
+    assert not np.allclose(a, b)
+
+
+def test_edit_mode_is_skipped_and_topology_change_needs_rebind():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+    runtime = helpers.sub("runtime")
+    frames = runtime.peek(obj).frames
+    bpy.ops.object.mode_set(mode='EDIT')
+    helpers.pose_limbs(char, elbow=0.2)
+    bpy.context.view_layer.update()
+    assert runtime.peek(obj).frames == frames  # not evaluated in Edit Mode
+    # Same element counts, other connectivity: turn one edge.
+    import bmesh
+    bm = bmesh.from_edit_mesh(obj.data)
+    bm.edges.ensure_lookup_table()
+    edge = next(e for e in bm.edges if len(e.link_faces) == 2)
+    bmesh.ops.rotate_edges(bm, edges=[edge], use_ccw=True)
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.view_layer.update()
+    assert obj.sweep_deform.state == 'REBIND'
+    assert "topology" in obj.sweep_deform.message
+    co, attrs = helpers.evaluated_positions(obj)
+    np.testing.assert_array_equal(co, helpers.base_positions(obj))  # shown undeformed
+    assert "sweep_deform_offset" not in obj.data.attributes
+    # Binding again makes it deform again.
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.sweep_deform_bind() == {'FINISHED'}
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+
+
+def test_deleted_vertices_need_rebind():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    import bmesh
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bm.verts.ensure_lookup_table()
+    bmesh.ops.delete(bm, geom=[bm.verts[0]], context='VERTS')
+    bm.to_mesh(obj.data)
+    bm.free()
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    assert obj.sweep_deform.state == 'REBIND'
+    co, _ = helpers.evaluated_positions(obj)
+    np.testing.assert_array_equal(co, helpers.base_positions(obj))
+
+
+def test_followed_by_subdivision_and_toggles():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    posed = check_equals_core(obj)
+    sub = obj.modifiers.new("Subdivision", 'SUBSURF')
+    sub.levels = 1
+    bpy.context.view_layer.update()
+    co, attrs = helpers.evaluated_positions(obj)
+    assert len(co) > len(posed) and "sweep_deform_offset" not in attrs
+    obj.modifiers.remove(sub)
+    md = helpers.sub("modifier").find(obj)
+    md.show_viewport = False
+    bpy.context.view_layer.update()
+    co, _ = helpers.evaluated_positions(obj)
+    np.testing.assert_array_equal(co, helpers.base_positions(obj))
+    md.show_viewport = True
+    helpers.pose_limbs(char, elbow=0.5)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+
+
+def test_apply_bakes_once():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.2, knee=0.8)
+    bpy.context.view_layer.update()
+    posed = check_equals_core(obj)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.modifier_apply(modifier="Sweep Deform") == {'FINISHED'}
+    np.testing.assert_array_equal(helpers.base_positions(obj), posed)
+    assert "sweep_deform_offset" not in obj.data.attributes
+    helpers.pose_limbs(char, elbow=0.3, knee=0.1)
+    bpy.context.view_layer.update()
+    assert obj.sweep_deform.state == 'UNBOUND'
+    co, _ = helpers.evaluated_positions(obj)
+    np.testing.assert_array_equal(co, posed)  # not deformed a second time
+    arm_md = next(m for m in obj.modifiers if m.type == 'ARMATURE')
+    assert not arm_md.show_viewport  # would deform the baked mesh again
+
+
+def test_remove_and_unbind_restore_the_armature_modifier():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
+    assert bpy.ops.object.sweep_deform_unbind() == {'FINISHED'}
+    assert arm_md.show_viewport and arm_md.show_render and arm_md.object == char.armature
+    assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(obj) is not None
+    assert bpy.ops.object.sweep_deform_bind() == {'FINISHED'}
+    assert not arm_md.show_viewport
+    obj.modifiers.remove(helpers.sub("modifier").find(obj))
+    bpy.context.view_layer.update()
+    assert obj.sweep_deform.state == 'UNBOUND'
+    assert arm_md.show_viewport and arm_md.show_render and arm_md.object == char.armature
+
+
+def test_operator_errors_are_reported():
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    bpy.context.view_layer.objects.active = char.mesh
+    with pytest.raises(RuntimeError, match="No armature object named"):
+        bpy.ops.object.sweep_deform_add(armature="nope")
+    bpy.context.view_layer.objects.active = char.armature
+    assert not bpy.ops.object.sweep_deform_add.poll()
+
+
+def test_shared_mesh_is_refused():
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    other = char.mesh.copy()  # a linked duplicate: same mesh data
+    bpy.context.scene.collection.objects.link(other)
+    bpy.context.view_layer.objects.active = char.mesh
+    with pytest.raises(RuntimeError, match="single user"):
+        bpy.ops.object.sweep_deform_add()
+    assert char.mesh.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(char.mesh) is None
+
+
+def test_disable_and_enable_the_extension():
+    """Handlers go with the add-on and come back with it; the library stays loaded once."""
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    assert bpy.ops.preferences.addon_disable(module=helpers.MODULE) == {'FINISHED'}
+    try:
+        assert not any("sweep_deform" in getattr(h, "__module__", "") for h in bpy.app.handlers.depsgraph_update_post)
+        helpers.pose_limbs(char, elbow=1.0)
+        bpy.context.view_layer.update()  # nothing listens: the old offsets stay
+    finally:
+        assert bpy.ops.preferences.addon_enable(module=helpers.MODULE) == {'FINISHED'}
+    bpy.ops.wm.save_as_mainfile(filepath=helpers.tmp_dir() + "/reenable.blend")
+    bpy.ops.wm.open_mainfile(filepath=helpers.tmp_dir() + "/reenable.blend")
+    obj = bpy.data.objects["Body"]
+    helpers.pose_limbs(char, elbow=1.3)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+    maps = [l.split()[-1] for l in open("/proc/self/maps") if "libsweepdeform" in l]
+    assert len(set(maps)) == 1
+
+
+def test_in_menus_for_f3_search():
+    ops = helpers.sub("operators")
+    assert ops._object_menu in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
+    deform = getattr(bpy.types, "OBJECT_MT_modifier_add_deform", None)
+    assert deform is not None and ops._modifier_menu in deform._dyn_ui_initialize()

@@ -1,0 +1,193 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What the .blend keeps: save, reload, deform exactly as before; damaged or outdated data
+shows "re-bind needed" instead of a wrong deformation; undo after bind."""
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+import helpers
+from test_deform import check_equals_core
+
+
+@pytest.mark.parametrize("key", ["fixture", "makehuman", "cesium"])
+def test_save_reload_exact(key):
+    char = helpers.load(key)
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    obj.sweep_deform.volume_strength = 0.75
+    helpers.pose_limbs(char, elbow=1.3, knee=0.9)
+    bpy.context.view_layer.update()
+    first = check_equals_core(obj)
+    helpers.pose_limbs(char, elbow=0.6, knee=1.4)
+    bpy.context.view_layer.update()
+    second = check_equals_core(obj)
+    helpers.pose_limbs(char, elbow=1.3, knee=0.9)
+    bpy.context.view_layer.update()
+    path = os.path.join(helpers.tmp_dir(), f"reload_{key}.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj = bpy.data.objects[char.mesh_name]
+    assert obj.sweep_deform.state == 'BOUND'
+    assert obj.sweep_deform.volume_strength == 0.75
+    assert helpers.sub("runtime").peek(obj) is None  # nothing native survives a load
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], first)
+    helpers.pose_limbs(char, elbow=0.6, knee=1.4)
+    bpy.context.view_layer.update()
+    assert helpers.sub("runtime").peek(obj).frames >= 1  # re-created from the blobs, evaluated
+    np.testing.assert_array_equal(check_equals_core(obj), second)
+
+
+def test_damaged_blob_needs_rebind():
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    persistence = helpers.sub("persistence")
+    blob = bytearray(obj[persistence.BINDING_KEY])
+    blob[len(blob) // 2] ^= 0xFF
+    persistence._put_bytes(obj, persistence.BINDING_KEY, bytes(blob))
+    helpers.sub("runtime").clear()
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    assert obj.sweep_deform.state == 'REBIND'
+    assert "checksum" in obj.sweep_deform.message
+    np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], helpers.base_positions(obj))
+
+
+def test_changed_armature_rest_pose_needs_rebind():
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    arm = char.armature
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    arm.data.edit_bones["lowerarm_l"].tail.z += 0.05
+    bpy.ops.object.mode_set(mode='OBJECT')
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    assert obj.sweep_deform.state == 'REBIND'
+    assert "rest pose" in obj.sweep_deform.message
+
+
+GUI_SCRIPT = r'''
+import bpy, json, os, sys
+sys.path.insert(0, {here!r})
+bpy.ops.preferences.addon_enable(module="bl_ext.user_default.sweep_deform")
+import helpers, numpy as np
+def step():
+    out = {{}}
+    try:
+        win = bpy.context.window_manager.windows[0]
+        with bpy.context.temp_override(window=win):
+            char = helpers.Character("makehuman", "Body", "Armature", ["lowerarm_l"], ["calf_l"],
+                                     helpers.bone_rig.MAKEHUMAN_CHAINS)
+            helpers.use_test_rig([char])
+            obj = char.mesh
+            bpy.context.view_layer.objects.active = obj
+            bpy.ops.ed.undo_push(message="before bind")
+            out["add"] = list(bpy.ops.object.sweep_deform_add('EXEC_DEFAULT', True))  # with an undo step, as from the UI
+            obj = char.mesh
+            out["bound"] = [obj.sweep_deform.state, [(m.name, m.show_viewport) for m in obj.modifiers]]
+            out["undo"] = list(bpy.ops.ed.undo())
+            obj = char.mesh
+            out["undone"] = [obj.sweep_deform.state, [(m.name, m.show_viewport) for m in obj.modifiers],
+                             "_sweep_deform_rig" in obj.keys()]
+            out["redo"] = list(bpy.ops.ed.redo())
+            obj = char.mesh
+            out["redone"] = [obj.sweep_deform.state, [(m.name, m.show_viewport) for m in obj.modifiers]]
+            helpers.pose_limbs(char, elbow=1.2, knee=0.7)
+            bpy.context.view_layer.update()
+            co, _ = helpers.evaluated_positions(obj)
+            expected, _ = helpers.core_expectation(obj)
+            out["deforms_after_redo"] = bool(np.array_equal(co, expected)) and bool(np.abs(co - helpers.base_positions(obj)).max() > 0.05)
+            # The interactive path: modal, progress, the native stages in a worker thread.
+            helpers.sub("bind").fitter = helpers.sub("bind").fit_native
+            out["unbind"] = list(bpy.ops.object.sweep_deform_unbind('EXEC_DEFAULT', True))
+            out["invoke"] = list(bpy.ops.object.sweep_deform_bind('INVOKE_DEFAULT'))
+    except Exception:
+        import traceback
+        out["error"] = traceback.format_exc()
+        print("RESULT " + json.dumps(out), flush=True)
+        os._exit(0)
+    bpy.app.timers.register(lambda: finish(out), first_interval=1.0)
+
+def finish(out):
+    try:
+        win = bpy.context.window_manager.windows[0]
+        obj = bpy.data.objects["Body"]
+        out["invoked"] = [obj.sweep_deform.state, obj.sweep_deform.sweep_count]
+        # Draw the panel (Modifier properties) with live limb volumes.
+        for area in win.screen.areas:
+            if area.type == 'PROPERTIES':
+                area.spaces[0].context = 'MODIFIER'
+        helpers.pose_limbs(helpers.Character("makehuman", "Body", "Armature", ["lowerarm_l"], ["calf_l"], []), elbow=1.4, knee=1.2)
+        bpy.context.view_layer.update()
+        with bpy.context.temp_override(window=win):
+            bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
+        out["volumes_drawn"] = helpers.sub("runtime").peek(obj).volumes() is not None
+        # Cancel: Esc arrives before the first progress tick; nothing changes.
+        with bpy.context.temp_override(window=win):
+            bpy.ops.object.sweep_deform_unbind('EXEC_DEFAULT', True)
+            out["invoke_again"] = list(bpy.ops.object.sweep_deform_bind('INVOKE_DEFAULT'))
+        win.event_simulate(type='ESC', value='PRESS')
+        win.event_simulate(type='ESC', value='RELEASE')
+    except Exception:
+        import traceback
+        out["error"] = traceback.format_exc()
+        print("RESULT " + json.dumps(out), flush=True)
+        os._exit(0)
+    bpy.app.timers.register(lambda: after_cancel(out), first_interval=1.0)
+
+def after_cancel(out):
+    obj = bpy.data.objects["Body"]
+    out["cancelled"] = [obj.sweep_deform.state, [(m.name, m.show_viewport) for m in obj.modifiers]]
+    print("RESULT " + json.dumps(out), flush=True)
+    os._exit(0)
+
+bpy.app.timers.register(step, first_interval=0.2)
+'''
+
+
+def test_undo_after_bind_in_the_interface():
+    """Undo needs a window: a Blender with its interface under Xvfb binds with an undo step,
+    undoes (the binding and the modifier go, the Armature modifier deforms again), redoes
+    (bound, deforming); then binds as the interface does (modal, with progress) and cancels a
+    bind with Esc."""
+    helpers.require("makehuman")
+    xvfb = shutil.which("xvfb-run")
+    if xvfb is None:
+        pytest.skip("xvfb-run not found")
+    script = os.path.join(helpers.tmp_dir(), "gui_undo.py")
+    with open(script, "w") as f:
+        f.write(GUI_SCRIPT.format(here=helpers.HERE))
+    cmd = [xvfb, "-a", "-s", "-screen 0 1024x768x24", bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
+           os.path.join(helpers.SHARED, "mh_male_game_engine.blend"), "--python", script]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=180)
+    lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
+    assert lines, proc.stdout[-3000:] + proc.stderr[-3000:]
+    out = json.loads(lines[-1][len("RESULT "):])
+    assert "error" not in out, out["error"]
+    assert out["add"] == ["FINISHED"]
+    assert out["bound"] == ["BOUND", [["Sweep Deform", True], ["Armature", False]]]
+    assert out["undone"] == ["UNBOUND", [["Armature", True]], False]
+    assert out["redone"] == ["BOUND", [["Sweep Deform", True], ["Armature", False]]]
+    assert out["deforms_after_redo"]
+    # Invoked from the interface: modal, fitted by the core in a worker thread, then bound.
+    assert out["invoke"] == ["RUNNING_MODAL"]
+    assert out["invoked"][0] == "BOUND" and out["invoked"][1] >= 5
+    # Esc before the job ends: cancelled, the file untouched.
+    assert out["invoke_again"] == ["RUNNING_MODAL"]
+    assert out["cancelled"] == ["UNBOUND", [["Sweep Deform", True], ["Armature", True]]]
+    # The panels drew without a Python error.
+    assert out["volumes_drawn"]
+    log = proc.stdout + proc.stderr
+    assert "OBJECT_PT_sweep_deform" not in log and "Traceback" not in log, log[-3000:]
