@@ -4,6 +4,8 @@
 Layers (dependencies point down):
 
     operators, panel, handlers, properties      Blender glue (bpy)
+    gizmos, overlay                             key-ellipse editing in the viewport (Sect. 4.2)
+    key_edit                                    numpy only: corrections, gizmo math, picking
     bind, runtime, persistence, modifier        Blender glue: binding, one frame, the .blend
     rig_io                                      numpy only: arrays between Blender and the core
     native                                      ctypes binding of libsweepdeform (lib/)
@@ -11,9 +13,9 @@ Layers (dependencies point down):
 See docs/addon.md in the repository for how the modifier works and what it costs per frame.
 """
 
-from . import handlers, operators, panel, properties
+from . import gizmos, handlers, operators, overlay, panel, persistence, properties
 
-_modules = (properties, operators, panel, handlers)
+_modules = (properties, operators, gizmos, panel, handlers, persistence, overlay)
 
 
 def register():

@@ -123,6 +123,7 @@ c_int32, c_int64, c_float, c_char_p = ctypes.c_int32, ctypes.c_int64, ctypes.c_f
 P_INT32 = ctypes.POINTER(ctypes.c_int32)
 P_INT64 = ctypes.POINTER(ctypes.c_int64)
 P_DOUBLE = ctypes.POINTER(ctypes.c_double)
+P_FLOAT = ctypes.POINTER(ctypes.c_float)
 Status = ctypes.c_int  # sd_status is a C enum (int)
 
 #: name -> (restype, argtypes, required). Every SD_API function of the header is here;
@@ -160,6 +161,10 @@ SIGNATURES = {
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT], True),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT], True),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT], True),
+    # measurements (reports and tests)
+    "sd_measure_volume": (Status, [c_int32, F32, c_int32, I32, P_DOUBLE], True),
+    "sd_measure_intersections": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, P_INT64], True),
+    "sd_measure_cross_sections": (Status, [c_int32, F32, c_int32, I32, c_int32, F32, F32, ctypes.c_float, F64_OUT], True),
     # automatic fitting
     "sd_fit_rig": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, F32, F32, F32,
                             ctypes.POINTER(c_char_p), c_int32, I32, F32, c_int32, c_int32, I32, I32,
@@ -169,6 +174,21 @@ SIGNATURES = {
     "sd_fit_result_slot_counts": (Status, [FitResultP, P_INT32, P_INT32], True),
     "sd_fit_result_weights": (Status, [FitResultP, c_int32, c_int32, I32_OUT, F32_OUT, c_int32, I32_OUT, F32_OUT], True),
     "sd_fit_result_report": (c_char_p, [FitResultP], True),
+    # key-ellipse editing (Sect. 4.2): pose-space corrections
+    "sd_rig_key_joint": (Status, [RigP, c_int32, c_int32, P_INT32, P_INT32, P_FLOAT], True),
+    "sd_rig_key_joint_angle": (Status, [RigP, c_int32, c_int32, c_int32, F32, P_FLOAT], True),
+    "sd_rig_set_key_correction": (Status, [RigP, c_int32, c_int32, c_float, F32, c_int32, P_INT32], True),
+    "sd_rig_remove_key_correction": (Status, [RigP, c_int32, c_int32, c_int32], True),
+    "sd_rig_mute_key_correction": (Status, [RigP, c_int32, c_int32, c_int32, c_int32], True),
+    "sd_rig_key_correction_count": (c_int32, [RigP, c_int32, c_int32], True),
+    "sd_rig_get_key_corrections": (Status, [RigP, c_int32, c_int32, c_int32, F32_OUT, F32_OUT, I32_OUT], True),
+    "sd_rig_key_correction_at": (Status, [RigP, c_int32, c_int32, c_float, F32_OUT], True),
+    "sd_rig_correction_count": (c_int32, [RigP], True),
+    "sd_rig_get_corrections": (Status, [RigP, c_int32, I32_OUT, I32_OUT, F32_OUT, F32_OUT, I32_OUT], True),
+    "sd_rig_set_corrections": (Status, [RigP, c_int32, I32, I32, F32, F32, I32], True),
+    "sd_rig_pose_keys": (Status, [RigP, c_int32, c_int32, F32, c_int32, c_int32, F32_OUT, F32_OUT, F32_OUT, F32_OUT], True),
+    "sd_rig_evaluate_posed_sweep": (Status, [RigP, c_int32, c_int32, F32, c_int32, F32, F32_OUT, F32_OUT, F32_OUT], True),
+    "sd_deformer_set_rig_corrections": (Status, [DeformerP, c_int32, I32, I32, F32, F32, I32], True),
 }
 
 
@@ -397,6 +417,111 @@ class Rig(_Handle):
     def serialize(self):
         return _serialize("sd_rig_serialize", self.ptr)
 
+    # -- key-ellipse editing (Sect. 4.2) -------------------------------------------------------
+    # A correction's values are 8 floats: center offset (3, along the key's axes), rotation
+    # vector (3, key frame, radians), factors of a and b. See the header for the joint angle.
+
+    def key_joint(self, sweep, key):
+        """(parent bone, child bone, rest angle) of the joint a key's corrections are keyed by."""
+        parent, child, rest = ctypes.c_int32(), ctypes.c_int32(), ctypes.c_float()
+        _call("sd_rig_key_joint", self.ptr, sweep, key, ctypes.byref(parent), ctypes.byref(child),
+              ctypes.byref(rest))
+        return parent.value, child.value, rest.value
+
+    def key_joint_angle(self, sweep, key, pose=None):
+        """The key's joint angle (radians) in `pose` (#B*16 float32; None = rest)."""
+        out = ctypes.c_float()
+        pose = self._pose(pose)
+        _call("sd_rig_key_joint_angle", self.ptr, sweep, key, self.bone_count, pose, ctypes.byref(out))
+        return out.value
+
+    def _pose(self, pose):
+        if pose is None:
+            return None
+        pose = _f32(pose).ravel()
+        _expect_size("pose", pose, 16 * self.bone_count)
+        return pose
+
+    def set_key_correction(self, sweep, key, angle, values, muted=False):
+        """Adds a correction, or replaces the one at the same angle; returns its index."""
+        values = _f32(values).ravel()
+        _expect_size("values", values, 8)
+        index = ctypes.c_int32(-1)
+        _call("sd_rig_set_key_correction", self.ptr, sweep, key, float(angle), values, 1 if muted else 0,
+              ctypes.byref(index))
+        return index.value
+
+    def remove_key_correction(self, sweep, key, index):
+        _call("sd_rig_remove_key_correction", self.ptr, sweep, key, index)
+
+    def mute_key_correction(self, sweep, key, index, muted=True):
+        _call("sd_rig_mute_key_correction", self.ptr, sweep, key, index, 1 if muted else 0)
+
+    def key_corrections(self, sweep, key):
+        """(angles #N, values (N,8), muted #N int32) of one key, sorted by angle."""
+        n = library().sd_rig_key_correction_count(self.ptr, sweep, key)
+        if n < 0:
+            _check("sd_rig_key_correction_count", 1)
+        angles, values, muted = np.empty(n, np.float32), np.empty((n, 8), np.float32), np.empty(n, np.int32)
+        _call("sd_rig_get_key_corrections", self.ptr, sweep, key, n, angles, values, muted)
+        return angles, values, muted
+
+    def key_correction_at(self, sweep, key, angle):
+        """The interpolated correction (8 values) of a key at a joint angle."""
+        out = np.empty(8, np.float32)
+        _call("sd_rig_key_correction_at", self.ptr, sweep, key, float(angle), out)
+        return out
+
+    def corrections(self):
+        """Every correction: dict of sweeps, keys, angles #N, values (N,8), muted #N."""
+        n = int(library().sd_rig_correction_count(self.ptr))
+        out = dict(sweeps=np.empty(n, np.int32), keys=np.empty(n, np.int32), angles=np.empty(n, np.float32),
+                   values=np.empty((n, 8), np.float32), muted=np.empty(n, np.int32))
+        _call("sd_rig_get_corrections", self.ptr, n, out["sweeps"], out["keys"], out["angles"], out["values"],
+              out["muted"])
+        return out
+
+    def set_corrections(self, sweeps, keys, angles, values, muted=None):
+        """Replaces every correction of the rig (empty arrays: none); all or nothing."""
+        args = _correction_arrays(sweeps, keys, angles, values, muted)
+        _call("sd_rig_set_corrections", self.ptr, *args)
+
+    def pose_keys(self, sweep, pose=None, corrected=True):
+        """The key ellipses of a sweep in `pose` (None = rest): dict of centers (K,3),
+        orientations (K,4) w,x,y,z, half_axes (K,2) (before volume control), angles #K."""
+        K = self.key_count(sweep)
+        out = dict(centers=np.empty((K, 3), np.float32), orientations=np.empty((K, 4), np.float32),
+                   half_axes=np.empty((K, 2), np.float32), angles=np.empty(K, np.float32))
+        _call("sd_rig_pose_keys", self.ptr, sweep, self.bone_count, self._pose(pose), 1 if corrected else 0, K,
+              out["centers"], out["orientations"], out["half_axes"], out["angles"])
+        return out
+
+    def evaluate_posed_sweep(self, sweep, u, pose=None):
+        """The corrected sweep in `pose` at parameters u in [0,1]: centers (n,3), rotations
+        (n,9) column-major, half_axes (n,2)."""
+        u = _f32(u).ravel()
+        n = u.size
+        out = dict(centers=np.empty((n, 3), np.float32), rotations=np.empty((n, 9), np.float32),
+                   half_axes=np.empty((n, 2), np.float32))
+        _call("sd_rig_evaluate_posed_sweep", self.ptr, sweep, self.bone_count, self._pose(pose), n, u,
+              out["centers"], out["rotations"], out["half_axes"])
+        return out
+
+
+def _correction_arrays(sweeps, keys, angles, values, muted):
+    sweeps, keys, angles = _i32(sweeps).ravel(), _i32(keys).ravel(), _f32(angles).ravel()
+    values = _f32(values).ravel()
+    n = sweeps.size
+    _expect_size("keys", keys, n)
+    _expect_size("angles", angles, n)
+    _expect_size("values", values, 8 * n)
+    muted = None if muted is None else _i32(muted).ravel()
+    if muted is not None:
+        _expect_size("muted", muted, n)
+    if n == 0:
+        return 0, None, None, None, None, None
+    return n, sweeps, keys, angles, values, muted
+
 
 def _serialize(name, ptr):
     size = ctypes.c_int64()
@@ -495,6 +620,11 @@ class Deformer(_Handle):
         _call("sd_deformer_get_volume_iterations", self.ptr, self.sweep_count, it)
         return it
 
+    def set_rig_corrections(self, sweeps, keys, angles, values, muted=None):
+        """Replaces the key-ellipse corrections of the deformer's rig (as Rig.set_corrections)."""
+        args = _correction_arrays(sweeps, keys, angles, values, muted)
+        _call("sd_deformer_set_rig_corrections", self.ptr, *args)
+
 
 # ---- automatic fitting ----------------------------------------------------------------
 
@@ -571,3 +701,33 @@ def fit_rig(positions, triangles, parents, rest, heads, tails, bone_names=None,
     _call("sd_fit_rig", V, positions, T, triangles, B, parents, rest, heads, tails, names, S,
           skin_bones, skin_weights, int(keys_per_link), C, offsets, chain_bones, ctypes.byref(out))
     return FitResult(out, V)
+
+
+# ---- measurements -------------------------------------------------------------------------
+
+def measure_volume(positions, triangles):
+    """Volume enclosed by a closed triangle mesh: positions (V,3), triangles (T,3)."""
+    p, t = _f32(positions).reshape(-1), _i32(triangles).reshape(-1)
+    out = ctypes.c_double()
+    _call("sd_measure_volume", p.size // 3, p, t.size // 3, t, ctypes.byref(out))
+    return out.value
+
+
+def measure_intersections(positions, triangles, subset=None):
+    """Pairs of triangles (of `subset`, else all) that intersect and share no vertex."""
+    p, t = _f32(positions).reshape(-1), _i32(triangles).reshape(-1)
+    sub = None if subset is None else _i32(subset).ravel()
+    out = ctypes.c_int64()
+    _call("sd_measure_intersections", p.size // 3, p, t.size // 3, t,
+          0 if sub is None else sub.size, sub, ctypes.byref(out))
+    return out.value
+
+
+def measure_cross_sections(positions, triangles, points, normals, reach=0.0):
+    """Areas of the loops around points[i] cut by the planes (points[i], normals[i])."""
+    p, t = _f32(positions).reshape(-1), _i32(triangles).reshape(-1)
+    pts, nrm = _f32(points).reshape(-1), _f32(normals).reshape(-1)
+    out = np.zeros(pts.size // 3, np.float64)
+    _call("sd_measure_cross_sections", p.size // 3, p, t.size // 3, t, pts.size // 3, pts, nrm,
+          float(reach), out)
+    return out

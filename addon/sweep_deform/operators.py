@@ -9,10 +9,11 @@ cancelled bind leaves no trace. Run from a script (``EXEC_DEFAULT``) it runs the
 at once.
 """
 
+import re
 import threading
 
 import bpy
-from bpy.props import StringProperty
+from bpy.props import EnumProperty, IntProperty, StringProperty
 
 from . import bind, native
 
@@ -200,6 +201,156 @@ class OBJECT_OT_sweep_deform_unbind(bpy.types.Operator):
         return {'FINISHED'}
 
 
+# ---- key-ellipse editing (Sect. 4.2) -----------------------------------------------------------
+
+
+def _bound_mesh(context):
+    obj = _mesh_object(context)
+    return obj if obj is not None and obj.sweep_deform.state == 'BOUND' else None
+
+
+def first_joint_key(obj):
+    """(sweep, key) to select when editing starts: the first interior joint key (an elbow or a
+    knee), else key 0 of sweep 0."""
+    from . import runtime
+    e = runtime.entry(obj)
+    if e.rig is None or e.rig.sweep_count == 0:
+        return -1, -1
+    for sweep in range(e.rig.sweep_count):
+        parents = e.rig.keys(sweep)["joint_parents"]
+        for k in range(1, len(parents) - 1):
+            if parents[k] >= 0:
+                return sweep, k
+    return 0, 0
+
+
+class OBJECT_OT_sweep_deform_edit_keys(bpy.types.Operator):
+    """Edit Key Ellipses: draw the sweeps and key ellipses in the viewport, with gizmos on the
+    selected key, and make the Edit Key Ellipses tool active (click a key to select it)"""
+    bl_idname = "object.sweep_deform_edit_keys"
+    bl_label = "Edit Key Ellipses"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    action: EnumProperty(name="Action", items=[('TOGGLE', "Toggle", ""), ('ENABLE', "Enable", ""),
+                                               ('DISABLE', "Disable", "")], default='TOGGLE')
+
+    @classmethod
+    def poll(cls, context):
+        if _bound_mesh(context) is None:
+            cls.poll_message_set("The active object must be a bound Sweep Deform mesh")
+            return False
+        return True
+
+    def execute(self, context):
+        from . import gizmos, runtime
+        obj = _bound_mesh(context)
+        s = obj.sweep_deform
+        enable = {'TOGGLE': not s.edit_keys, 'ENABLE': True, 'DISABLE': False}[self.action]
+        s.edit_keys = enable
+        if enable and (s.active_sweep < 0 or s.active_key < 0):
+            s.active_sweep, s.active_key = first_joint_key(obj)
+        if obj.mode == 'OBJECT':
+            try:
+                gizmos.activate_tool(context, enable)
+            except (RuntimeError, TypeError) as e:  # no 3D viewport (scripts, background)
+                print(f"Sweep Deform: tool not switched: {e}")
+        runtime.redraw_views()
+        return {'FINISHED'}
+
+
+def _fcurve_lists(obj):
+    """The F-curve collections (drivers, and the action's for this object) of `obj`."""
+    ad = obj.animation_data
+    if ad is None:
+        return []
+    out = [ad.drivers]
+    act = ad.action
+    if act is None:
+        return out
+    if hasattr(act, "fcurves") and not hasattr(act, "layers"):
+        out.append(act.fcurves)  # Blender 4.3: a legacy action
+        return out
+    try:
+        layers = act.layers
+    except AttributeError:
+        layers = []
+    if len(layers) == 0 and hasattr(act, "fcurves"):
+        out.append(act.fcurves)
+    for layer in layers:
+        for strip in layer.strips:
+            bag = strip.channelbag(ad.action_slot) if ad.action_slot is not None else None
+            if bag is not None:
+                out.append(bag.fcurves)
+    return out
+
+
+_CORRECTION_PATH = re.compile(r"^sweep_deform\.corrections\[(\d+)\](.*)$")
+
+
+def remove_correction(obj, index):
+    """Removes correction `index`, keeping keyframes and drivers on the others (their paths
+    hold the collection index)."""
+    s = obj.sweep_deform
+    for fcurves in _fcurve_lists(obj):
+        for fc in list(fcurves):
+            m = _CORRECTION_PATH.match(fc.data_path)
+            if m is None:
+                continue
+            i = int(m.group(1))
+            if i == index:
+                fcurves.remove(fc)
+            elif i > index:
+                fc.data_path = f"sweep_deform.corrections[{i - 1}]{m.group(2)}"
+    s.corrections.remove(index)
+    s.active_correction = max(0, min(s.active_correction, len(s.corrections) - 1))
+    obj.update_tag()  # removing an item is no property update: evaluate again
+
+
+class OBJECT_OT_sweep_deform_correction_remove(bpy.types.Operator):
+    """Delete a key-ellipse correction (its keyframes go with it)"""
+    bl_idname = "object.sweep_deform_correction_remove"
+    bl_label = "Delete Correction"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    index: IntProperty(name="Index", default=-1, min=-1, description="-1: the active correction")
+
+    @classmethod
+    def poll(cls, context):
+        obj = _bound_mesh(context)
+        return obj is not None and len(obj.sweep_deform.corrections) > 0
+
+    def execute(self, context):
+        obj = _bound_mesh(context)
+        s = obj.sweep_deform
+        index = s.active_correction if self.index < 0 else self.index
+        if not 0 <= index < len(s.corrections):
+            self.report({'ERROR'}, f"Sweep Deform: no correction {index}")
+            return {'CANCELLED'}
+        remove_correction(obj, index)
+        return {'FINISHED'}
+
+
+class OBJECT_OT_sweep_deform_key_clear(bpy.types.Operator):
+    """Delete every correction of the selected key ellipse"""
+    bl_idname = "object.sweep_deform_key_clear"
+    bl_label = "Clear Key Corrections"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = _bound_mesh(context)
+        return obj is not None and obj.sweep_deform.active_key >= 0
+
+    def execute(self, context):
+        obj = _bound_mesh(context)
+        s = obj.sweep_deform
+        for i in reversed(range(len(s.corrections))):
+            c = s.corrections[i]
+            if c.sweep == s.active_sweep and c.key == s.active_key:
+                remove_correction(obj, i)
+        return {'FINISHED'}
+
+
 class VIEW3D_MT_sweep_deform(bpy.types.Menu):
     bl_label = "Sweep Deform"
     bl_idname = "VIEW3D_MT_sweep_deform"
@@ -209,6 +360,8 @@ class VIEW3D_MT_sweep_deform(bpy.types.Menu):
         layout.operator(OBJECT_OT_sweep_deform_add.bl_idname, icon='MOD_ARMATURE')
         layout.operator(OBJECT_OT_sweep_deform_bind.bl_idname)
         layout.operator(OBJECT_OT_sweep_deform_unbind.bl_idname)
+        layout.separator()
+        layout.operator(OBJECT_OT_sweep_deform_edit_keys.bl_idname, icon='MESH_CIRCLE')
 
 
 def _object_menu(self, context):
@@ -221,7 +374,8 @@ def _modifier_menu(self, context):
 
 
 classes = (OBJECT_OT_sweep_deform_add, OBJECT_OT_sweep_deform_bind, OBJECT_OT_sweep_deform_unbind,
-           VIEW3D_MT_sweep_deform)
+           OBJECT_OT_sweep_deform_edit_keys, OBJECT_OT_sweep_deform_correction_remove,
+           OBJECT_OT_sweep_deform_key_clear, VIEW3D_MT_sweep_deform)
 
 # The Add Modifier menu's Deform column (Blender 4.0+), else nothing there.
 _MODIFIER_MENUS = ("OBJECT_MT_modifier_add_deform",)

@@ -1,10 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The Sweep Deform panel in the Modifier properties (below the stack): armature, bind
-state, volume preservation on/off and strength, and the live volume change of each limb."""
+state, volume preservation on/off and strength, the live volume change of each limb, and
+the key-ellipse editing (Sect. 4.2): the Edit Key Ellipses toggle, the selected key, and the
+corrections (a list to select, mute and delete them; the active one's values, which can be
+keyframed). The editing part is also in the 3D viewport's sidebar (Sweep Deform tab)."""
 
 import bpy
 
-from . import modifier, native, operators, runtime, rig_io
+from . import key_edit, modifier, native, operators, runtime, rig_io
 
 
 def _relevant(obj):
@@ -120,6 +123,148 @@ class OBJECT_PT_sweep_deform_volumes(bpy.types.Panel):
         layout.label(text="Change from the rest volume, before and after volume control", icon='INFO')
 
 
+# ---- key-ellipse editing (Sect. 4.2) ---------------------------------------------------------
+
+
+def key_label(obj, sweep, key):
+    """A readable name of a key ellipse: limb, index, role and joint bone."""
+    e = runtime.peek(obj)
+    if e is None or e.rig is None or not 0 <= sweep < e.rig.sweep_count:
+        return f"sweep {sweep} · key {key}"
+    K = e.rig.key_count(sweep)
+    if not 0 <= key < K:
+        return f"sweep {sweep} · key {key}"
+    label = e.labels[sweep] if sweep < len(e.labels) else f"sweep {sweep}"
+    joint_key = bool(e.rig.keys(sweep)["joint_parents"][key] >= 0)
+    _, child, _ = e.rig.key_joint(sweep, key)
+    name = e.bone_names[child] if 0 <= child < len(e.bone_names) else ""
+    return key_edit.key_label(label, key, K, joint_key, name)
+
+
+class SWEEPDEFORM_UL_corrections(bpy.types.UIList):
+    """The key-ellipse corrections: key, angle, mute, delete."""
+
+    def draw_item(self, context, layout, data, item, icon, active_data, active_propname, index):
+        obj = data.id_data
+        row = layout.row(align=True)
+        selected = item.sweep == data.active_sweep and item.key == data.active_key
+        row.label(text=key_label(obj, item.sweep, item.key), icon='MESH_CIRCLE' if selected else 'BLANK1')
+        sub = row.row(align=True)
+        sub.alignment = 'RIGHT'
+        sub.label(text=key_edit.degrees(item.angle))
+        sub.prop(item, "mute", text="", icon='HIDE_ON' if item.mute else 'HIDE_OFF', emboss=False)
+        op = sub.operator(operators.OBJECT_OT_sweep_deform_correction_remove.bl_idname, text="", icon='X',
+                          emboss=False)
+        op.index = index
+
+    def filter_items(self, context, data, propname):
+        items = getattr(data, propname)
+        flags = []
+        for c in items:
+            show = not data.list_active_key_only or (c.sweep == data.active_sweep and c.key == data.active_key)
+            flags.append(self.bitflag_filter_item if show else 0)
+        order = bpy.types.UI_UL_list.sort_items_helper(
+            [(i, (c.sweep, c.key, c.angle)) for i, c in enumerate(items)], key=lambda t: t[1])
+        return flags, order
+
+
+def draw_key_editing(layout, context, obj, compact=False):
+    s = obj.sweep_deform
+    row = layout.row()
+    row.scale_y = 1.3
+    row.operator(operators.OBJECT_OT_sweep_deform_edit_keys.bl_idname, text="Edit Key Ellipses",
+                 icon='MESH_CIRCLE', depress=s.edit_keys)
+    if s.state != 'BOUND':
+        layout.label(text="Bind first", icon='INFO')
+        return
+    e = runtime.peek(obj)
+    col = layout.column(align=True)
+    row = col.row(align=True)
+    row.prop(s, "active_sweep")
+    row.prop(s, "active_key")
+    if s.active_sweep >= 0 and s.active_key >= 0:
+        col.label(text=key_label(obj, s.active_sweep, s.active_key), icon='MESH_CIRCLE')
+        try:
+            st = runtime.key_state(obj, s.active_sweep, s.active_key)
+        except (RuntimeError, native.NativeError, ValueError, IndexError) as err:
+            box = layout.box()
+            box.alert = True
+            for line in _wrap(str(err)):
+                box.label(text=line)
+            st = None
+        if st is not None:
+            col.label(text=f"Joint angle {key_edit.degrees(st['angle'])} (rest {key_edit.degrees(st['rest_angle'])})")
+            v = st["values"]
+            if not compact:
+                col.label(text=f"Correction here: offset {v[0]:+.3f} {v[1]:+.3f} {v[2]:+.3f}, "
+                               f"scale {v[6]:.2f} × {v[7]:.2f}")
+    else:
+        col.label(text="No key ellipse selected: click one in the viewport", icon='INFO')
+    if e is not None and e.correction_error:
+        box = layout.box()
+        box.alert = True
+        box.label(text="Corrections refused by the core:", icon='ERROR')
+        for line in _wrap(e.correction_error):
+            box.label(text=line)
+
+    layout.label(text=f"Corrections ({len(s.corrections)})")
+    row = layout.row()
+    row.template_list("SWEEPDEFORM_UL_corrections", "", s, "corrections", s, "active_correction",
+                      rows=3 if compact else 4)
+    side = row.column(align=True)
+    side.operator(operators.OBJECT_OT_sweep_deform_correction_remove.bl_idname, text="", icon='REMOVE')
+    side.operator(operators.OBJECT_OT_sweep_deform_key_clear.bl_idname, text="", icon='TRASH')
+    layout.prop(s, "list_active_key_only")
+    if 0 <= s.active_correction < len(s.corrections):
+        c = s.corrections[s.active_correction]
+        box = layout.box()
+        box.use_property_split = True
+        box.use_property_decorate = True  # keyframe dots: every value can be animated
+        box.label(text=key_label(obj, c.sweep, c.key))
+        box.prop(c, "angle")
+        box.prop(c, "offset")
+        box.prop(c, "rotation")
+        box.prop(c, "scale_a")
+        box.prop(c, "scale_b")
+        box.prop(c, "mute")
+    col = layout.column()
+    col.use_property_split = True
+    col.use_property_decorate = False
+    col.prop(s, "merge_angle")
+    col.prop(s, "show_sweeps", text="Draw Sweeps")
+
+
+class OBJECT_PT_sweep_deform_keys(bpy.types.Panel):
+    bl_label = "Key Ellipses"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "modifier"
+    bl_parent_id = "OBJECT_PT_sweep_deform"
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+
+    def draw(self, context):
+        draw_key_editing(self.layout, context, context.object)
+
+
+class VIEW3D_PT_sweep_deform_keys(bpy.types.Panel):
+    bl_label = "Key Ellipses"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "Sweep Deform"
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+
+    def draw(self, context):
+        draw_key_editing(self.layout, context, context.object, compact=True)
+
+
 def _wrap(text, width=60):
     words, lines, line = text.split(), [], ""
     for w in words:
@@ -133,7 +278,8 @@ def _wrap(text, width=60):
     return lines
 
 
-classes = (OBJECT_PT_sweep_deform, OBJECT_PT_sweep_deform_volumes)
+classes = (OBJECT_PT_sweep_deform, OBJECT_PT_sweep_deform_volumes, SWEEPDEFORM_UL_corrections,
+           OBJECT_PT_sweep_deform_keys, VIEW3D_PT_sweep_deform_keys)
 
 
 def register():

@@ -11,6 +11,9 @@
   element counts, a SHA-1 of its connectivity and of its rest positions.
 * Native objects are never saved: the runtime cache re-creates a deformer lazily after load or
   undo (see runtime.py).
+* Key-ellipse corrections (Sect. 4.2) are properties of ``Object.sweep_deform`` (saved and
+  undone like any property); when the file is saved, the rig blob gets a copy of them
+  (format version 2), so the blob alone describes the edited rig for other tools.
 """
 
 import numpy as np
@@ -122,3 +125,53 @@ def topology_matches(obj):
 
 def rest_positions_match(obj):
     return rig_io.positions_fingerprint(mesh_positions(obj.data)) == obj.sweep_deform.rest_positions
+
+
+# ---- corrections into the rig blob (at save) ---------------------------------------------
+
+
+def store_corrections(obj):
+    """Writes the object's corrections into its rig blob if they differ from the blob's.
+    Returns True if the blob was rewritten."""
+    if RIG_KEY not in obj:
+        return False
+    from . import runtime
+    old = bytes(obj[RIG_KEY])
+    rig = native.Rig.deserialize(old)
+    rig.set_corrections(*runtime.correction_arrays(obj.sweep_deform))
+    new = rig.serialize()
+    if new == old:
+        return False
+    _put_bytes(obj, RIG_KEY, new)
+    return True
+
+
+def _on_save_pre(*_args):
+    import bpy
+    for obj in bpy.data.objects:
+        if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or RIG_KEY not in obj:
+            continue
+        try:
+            store_corrections(obj)
+        except (native.NativeError, native.NativeLibraryError, ValueError) as e:
+            print(f"Sweep Deform: '{obj.name}': the corrections were not copied into the rig blob: {e}")
+
+
+def register():
+    import bpy
+    from bpy.app.handlers import persistent
+    global _save_handler
+    unregister()
+    _save_handler = persistent(_on_save_pre)
+    bpy.app.handlers.save_pre.append(_save_handler)
+
+
+def unregister():
+    import bpy
+    for h in [h for h in bpy.app.handlers.save_pre
+              if getattr(h, "__qualname__", None) == _on_save_pre.__qualname__
+              and getattr(h, "__module__", None) == __name__]:
+        bpy.app.handlers.save_pre.remove(h)
+
+
+_save_handler = None

@@ -7,8 +7,11 @@ persistence.py. Changing a setting only marks the character for re-evaluation: t
 handlers pick the change up.
 """
 
+import math
+
 import bpy
-from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, PointerProperty, StringProperty
+from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
+                       IntProperty, PointerProperty, StringProperty)
 
 STATES = [
     ('UNBOUND', "Not Bound", "No binding: the modifier does nothing"),
@@ -27,6 +30,43 @@ def _is_armature(self, obj):
     return obj.type == 'ARMATURE'
 
 
+def _corrections_changed(self, context):
+    # The handlers read the corrections on every evaluation; this only asks for one.
+    from . import runtime
+    runtime.corrections_changed(self.id_data)
+
+
+def _edit_changed(self, context):
+    from . import runtime
+    runtime.redraw_views()
+
+
+class SweepDeformCorrection(bpy.types.PropertyGroup):
+    """A pose-space correction of one key ellipse (Sect. 4.2): made while the key's joint
+    stood at `angle`; its values are interpolated over the joint angle by the core. Every
+    value is an ordinary property: it can be keyframed or driven."""
+    sweep: IntProperty(name="Sweep", min=0, description="Index of the sweep (limb) of the key ellipse")
+    key: IntProperty(name="Key", min=0, description="Index of the key ellipse along its sweep")
+    angle: FloatProperty(
+        name="Angle", subtype='ANGLE', min=0.0, max=math.pi, update=_corrections_changed,
+        description="Joint angle this correction belongs to (the angle between the joint's two links)")
+    offset: FloatVectorProperty(
+        name="Offset", size=3, subtype='TRANSLATION', unit='LENGTH', update=_corrections_changed,
+        description="Move of the ellipse's center along its own axes (major, minor, normal)")
+    rotation: FloatVectorProperty(
+        name="Rotation", size=3, subtype='XYZ', unit='ROTATION', soft_min=-math.pi / 2, soft_max=math.pi / 2,
+        update=_corrections_changed,
+        description="Turn of the ellipse about its own axes (a rotation vector: axis times angle, at most 90°)")
+    scale_a: FloatProperty(
+        name="Scale A", default=1.0, min=0.1, max=10.0, soft_min=0.25, soft_max=4.0, update=_corrections_changed,
+        description="Factor of the half-axis a (along the major axis)")
+    scale_b: FloatProperty(
+        name="Scale B", default=1.0, min=0.1, max=10.0, soft_min=0.25, soft_max=4.0, update=_corrections_changed,
+        description="Factor of the half-axis b (along the minor axis)")
+    mute: BoolProperty(name="Mute", default=False, update=_corrections_changed,
+                       description="Keep the correction but do not use it")
+
+
 class SweepDeformSettings(bpy.types.PropertyGroup):
     armature: PointerProperty(
         name="Armature", type=bpy.types.Object, poll=_is_armature,
@@ -38,6 +78,25 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
         name="Strength", default=1.0, min=0.0, max=1.0, subtype='FACTOR', update=_settings_changed,
         description="How much of the volume change is corrected (0 = none, 1 = all)")
     show_volumes: BoolProperty(name="Volumes", default=True, description="Show the volume of each limb")
+
+    # Key-ellipse editing (Sect. 4.2): the corrections, and the editing state.
+    corrections: CollectionProperty(type=SweepDeformCorrection, name="Corrections")
+    active_correction: IntProperty(name="Active Correction", default=0, min=0)
+    edit_keys: BoolProperty(
+        name="Edit Key Ellipses", default=False, update=_edit_changed,
+        description="Show the key ellipses and sweeps in the viewport, with gizmos on the selected key")
+    active_sweep: IntProperty(name="Sweep", default=-1, min=-1, update=_edit_changed,
+                              description="Sweep of the selected key ellipse (-1: none)")
+    active_key: IntProperty(name="Key", default=-1, min=-1, update=_edit_changed,
+                            description="The selected key ellipse along its sweep (-1: none)")
+    merge_angle: FloatProperty(
+        name="Merge Angle", subtype='ANGLE', default=math.radians(5.0), min=0.0, max=math.radians(45.0),
+        description="An edit this close to a correction's angle edits that correction; this close to the rest "
+                    "angle it is an edit at rest (it shifts every pose)")
+    show_sweeps: BoolProperty(name="Sweeps", default=True, update=_edit_changed,
+                              description="Draw the sweep surfaces as a wireframe")
+    list_active_key_only: BoolProperty(name="Selected Key Only", default=False,
+                                       description="List only the corrections of the selected key ellipse")
 
     # Bind state (written by the bind operator; not for editing).
     state: EnumProperty(name="State", items=STATES, default='UNBOUND')
@@ -59,7 +118,7 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
     armature_modifier_object: PointerProperty(type=bpy.types.Object)
 
 
-classes = (SweepDeformSettings,)
+classes = (SweepDeformCorrection, SweepDeformSettings)
 
 
 def register():

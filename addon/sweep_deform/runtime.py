@@ -3,9 +3,18 @@
 
 A small cache keeps, per bound object, the native deformer (re-created lazily from the
 object's blobs after load or undo), its buffers (no allocation per frame) and the key of
-the state it last wrote: the pose matrices, the mesh→armature linear map and the volume
-settings. :func:`evaluate` returns at once when that key has not changed, which is what
-keeps the handlers from feeding the depsgraph their own writes back (see handlers.py).
+the state it last wrote: the pose matrices, the mesh→armature linear map, the volume
+settings and the key-ellipse corrections. :func:`evaluate` returns at once when that key has
+not changed, which is what keeps the handlers from feeding the depsgraph their own writes
+back (see handlers.py).
+
+Key-ellipse corrections (Sect. 4.2) are ordinary properties of the object
+(``sweep_deform.corrections``), so they can be keyframed, driven and undone; they are what
+the add-on uses. Every evaluation reads them (one ``foreach_get`` per field; in a render
+from the render depsgraph's copy, so animated values are the frame's) and, when they
+changed, hands them to the native rig and deformer (``sd_deformer_set_rig_corrections``: microseconds, where creating
+the deformer again costs milliseconds). The rig blob's own copy of the corrections is
+written when the file is saved (persistence.py) and ignored when it is read.
 """
 
 import numpy as np
@@ -30,9 +39,18 @@ class Entry:
         self.rest_checked = False
         self.unusable = False
         self.last_pose = None
+        self.rig = None
+        self.corrections_key = None
+        self.correction_error = ""
+        self.overlay = None
+        self.overlay_key = None
         try:
             rig, binding, names, rest_pose = persistence.load(obj)
             self.bone_names = names
+            # The properties rule: the blob's corrections (written at save) are dropped, so the
+            # rest shape below is the uncorrected one the binding was made against.
+            rig.set_corrections([], [], [], [])
+            self.rig = rig
             self.deformer = native.Deformer(rig, binding)
             self.labels = rig_io.sweep_labels([rig.keys(s)["bones"] for s in range(rig.sweep_count)], names,
                                               obj.get(persistence.REPORT_KEY, ""))
@@ -79,6 +97,151 @@ class Entry:
 
 def _key(obj):
     return (obj.name, obj.sweep_deform.bind_id)
+
+
+# ---- key-ellipse corrections (Sect. 4.2) ---------------------------------------------------
+
+
+def correction_arrays(settings):
+    """(sweeps, keys, angles, values (N,8), muted) of a SweepDeformSettings' corrections, as
+    the ABI takes them, read with one foreach_get per field."""
+    coll = settings.corrections
+    n = len(coll)
+    sweeps, keys = np.empty(n, np.int32), np.empty(n, np.int32)
+    angles, scale_a, scale_b = np.empty(n, np.float32), np.empty(n, np.float32), np.empty(n, np.float32)
+    offset, rotation = np.empty(3 * n, np.float32), np.empty(3 * n, np.float32)
+    muted = np.empty(n, bool)
+    if n:
+        coll.foreach_get("sweep", sweeps)
+        coll.foreach_get("key", keys)
+        coll.foreach_get("angle", angles)
+        coll.foreach_get("offset", offset)
+        coll.foreach_get("rotation", rotation)
+        coll.foreach_get("scale_a", scale_a)
+        coll.foreach_get("scale_b", scale_b)
+        coll.foreach_get("mute", muted)
+    values = np.concatenate([offset.reshape(n, 3), rotation.reshape(n, 3), scale_a[:, None], scale_b[:, None]],
+                            axis=1).astype(np.float32)
+    return sweeps, keys, angles, values, muted.astype(np.int32)
+
+
+def sync_corrections(e, settings):
+    """Hands the corrections of `settings` to the entry's rig and deformer if they changed.
+    Returns the corrections' key (part of the evaluation key). Invalid corrections are
+    refused by the core: the previous ones stay, and the panel shows why."""
+    arrays = correction_arrays(settings)
+    key = b"".join(a.tobytes() for a in arrays)
+    if key != e.corrections_key:
+        e.corrections_key = key
+        try:
+            e.deformer.set_rig_corrections(*arrays)
+            e.rig.set_corrections(*arrays)
+            e.correction_error = ""
+        except native.NativeError as err:
+            e.correction_error = str(err).split(": ", 2)[-1]
+    return key
+
+
+def corrections_changed(obj):
+    """A correction property changed (the next evaluation hands them on); redraw the overlay."""
+    redraw_views()
+
+
+def redraw_views():
+    try:
+        import bpy
+        wm = bpy.context.window_manager
+    except (ImportError, AttributeError):
+        return
+    if wm is None:
+        return
+    for window in wm.windows:
+        for area in window.screen.areas:
+            if area.type in ('VIEW_3D', 'PROPERTIES'):
+                area.tag_redraw()
+
+
+def current_pose(obj, depsgraph=None):
+    """The pose of the last evaluation (rig order, #B*16 float32), else read now."""
+    e = entry(obj)
+    if e.deformer is None:
+        return None
+    if e.last_pose is not None:
+        return e.last_pose
+    import bpy
+    arm = obj.sweep_deform.armature
+    if arm is None:
+        return None
+    dg = depsgraph or bpy.context.evaluated_depsgraph_get()
+    try:
+        return _armature_pose(e, arm.evaluated_get(dg)).copy()
+    except KeyError:
+        return None
+
+
+def key_state(obj, sweep, key):
+    """Everything an edit of one key ellipse needs, in the armature's space, for the current
+    pose: its joint angle and rest angle, the key as Sect. 4.1 places it (center, rotation,
+    half-axes) and as shown with its correction, and the correction's current values."""
+    e = entry(obj)
+    if e.deformer is None:
+        raise RuntimeError(e.error or "the character is not bound")
+    sync_corrections(e, obj.sweep_deform)
+    pose = current_pose(obj)
+    placed = e.rig.pose_keys(sweep, pose, corrected=False)
+    shown = e.rig.pose_keys(sweep, pose, corrected=True)
+    _, _, rest_angle = e.rig.key_joint(sweep, key)
+    angle = float(placed["angles"][key])
+    from . import key_edit
+    return dict(
+        angle=angle, rest_angle=float(rest_angle),
+        center=placed["centers"][key].astype(np.float64),
+        rotation=key_edit.quat_to_matrix(placed["orientations"][key]),
+        half_axes=placed["half_axes"][key].astype(np.float64),
+        shown_center=shown["centers"][key].astype(np.float64),
+        shown_rotation=key_edit.quat_to_matrix(shown["orientations"][key]),
+        shown_half_axes=shown["half_axes"][key].astype(np.float64),
+        values=e.rig.key_correction_at(sweep, key, angle).astype(np.float64),
+        rest_half_axes=e.rig.keys(sweep)["half_axes"][key].astype(np.float64))
+
+
+#: Samples per span of the overlay's sweep wireframe.
+OVERLAY_RINGS_PER_SPAN = 4
+
+
+def overlay_data(obj):
+    """The key ellipses and sweeps of the current pose, in the armature's space (cached per
+    pose and corrections): per sweep a dict with the corrected keys (centers, rotations
+    (K,3,3), half_axes), the keys as Sect. 4.1 places them, and sampled sweep points."""
+    e = entry(obj)
+    if e.deformer is None or e.rig is None:
+        return None
+    sync_corrections(e, obj.sweep_deform)
+    pose = current_pose(obj)
+    key = (None if pose is None else pose.tobytes(), e.corrections_key)
+    if key == e.overlay_key and e.overlay is not None:
+        return e.overlay
+    from . import key_edit
+    sweeps = []
+    for s in range(e.rig.sweep_count):
+        shown = e.rig.pose_keys(s, pose, corrected=True)
+        placed = e.rig.pose_keys(s, pose, corrected=False)
+        K = len(shown["centers"])
+        spans = K - 1
+        u = np.linspace(0.0, 1.0, spans * OVERLAY_RINGS_PER_SPAN + 1, dtype=np.float32)
+        wire = e.rig.evaluate_posed_sweep(s, u, pose)
+        sweeps.append(dict(
+            centers=shown["centers"].astype(np.float64),
+            rotations=np.array([key_edit.quat_to_matrix(q) for q in shown["orientations"]]),
+            half_axes=shown["half_axes"].astype(np.float64),
+            placed_centers=placed["centers"].astype(np.float64),
+            placed_rotations=np.array([key_edit.quat_to_matrix(q) for q in placed["orientations"]]),
+            placed_half_axes=placed["half_axes"].astype(np.float64),
+            angles=shown["angles"].astype(np.float64),
+            wire_centers=wire["centers"], wire_rotations=wire["rotations"], wire_half_axes=wire["half_axes"],
+            key_rings=list(range(0, len(u), OVERLAY_RINGS_PER_SPAN))))
+    e.overlay, e.overlay_key = sweeps, key
+    return sweeps
 
 
 def entry(obj):
@@ -228,7 +391,12 @@ def evaluate(obj, depsgraph, render=False):
     # Offsets are vectors: only the linear part of mesh → armature space maps them back.
     linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
     settings = (bool(s.use_volume_preservation), float(s.volume_strength))
-    key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings)
+    # Corrections: in the viewport from the object itself (Blender copies animated and driven
+    # values back to it for the active depsgraph, and a removed item is seen at once); in a
+    # render from the render depsgraph's copy, which holds that frame's animated values.
+    corrections = sync_corrections(e, obj_eval.sweep_deform if render else s)
+    key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
+           corrections)
     if key == e.key and rig_io.OFFSET_ATTRIBUTE in obj.data.attributes:
         return False  # already written (an attribute removed by someone else is written again)
     if settings != e.settings:

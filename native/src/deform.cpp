@@ -46,15 +46,23 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
     for (size_t si = 0; si < rig_.sweeps.size(); ++si) {
         const Sweep& s = rig_.sweeps[si];
         pose_keys(s, pose, centers, rotations);
+        // The artist's corrections (Sect. 4.2) move, turn and scale the placed keys; scaled
+        // half-axes are where the volume controller starts from.
+        std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
+        if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
         const SweepGeometry g(centers, rotations);
 
         // Volume control (Sect. 4.4) on the key half-axes.
-        std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         const VolumeForm form(s.quadrature, volume_density(s.quadrature, g));
         if (volume_enabled_ && volume_strength_ > 0.0) {
             const double before = form.volume(a.data(), b.data());
-            const double target = before + volume_strength_ *
-                                               (s.rest_volume - volume_offsets_[si] - before);
+            // V0 of the corrected rest pose, plus what the artist's scaling adds in this pose
+            // (kept: the controller must not undo an edit).
+            double edited = 0.0;
+            if (s.has_corrections && (a != s.rest_half_axes.a || b != s.rest_half_axes.b))
+                edited = before - form.volume(s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
+            const double target = before + volume_strength_ * (s.corrected_rest_volume + edited -
+                                                               volume_offsets_[si] - before);
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
             volume_before[si] = r.before;
             volume_after[si] = r.after;

@@ -20,6 +20,9 @@ public:
     void set_volume_preservation(bool enabled, double strength);
     /// Per-sweep I_C subtracted from the rest volume to form the controller's target.
     void set_volume_offsets(const std::vector<double>& offsets);
+    /// Replaces the key-ellipse corrections (Sect. 4.2) of the deformer's rig; the binding
+    /// stays valid (it was made against the uncorrected rest sweeps). @throws InvalidInput
+    void set_corrections(const std::vector<CorrectionRecord>& records) { rig_.set_corrections(records); }
 
     /// @param pose  #B*16 column-major posed bone matrices. @throws InvalidInput
     /// @param out   #V*3 deformed positions

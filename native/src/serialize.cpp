@@ -95,9 +95,10 @@ std::vector<uint8_t> frame(const char magic[4], uint32_t version, const std::vec
     return w.bytes;
 }
 
-/// Checks the frame and returns a reader over the payload.
+/// Checks the frame and returns a reader over the payload; versions [min_version, version]
+/// are accepted (out_version, if given, receives the blob's).
 Reader unframe(const uint8_t* data, size_t size, const char magic[4], uint32_t version,
-               const char* what) {
+               const char* what, uint32_t min_version = 0, uint32_t* out_version = nullptr) {
     if (!data) throw CorruptData(std::string(what) + " blob is NULL");
     const size_t header = 4 + 4 + 8;
     if (size < header + 4) throw CorruptData(std::string(what) + " blob is truncated");
@@ -105,9 +106,14 @@ Reader unframe(const uint8_t* data, size_t size, const char magic[4], uint32_t v
         throw CorruptData(std::string("not a ") + what + " blob (bad magic)");
     Reader r(data + 4, size - 4);
     const uint32_t v = r.get<uint32_t>();
-    if (v != version)
+    if (min_version == 0) min_version = version;
+    if (v < min_version || v > version)
         throw CorruptData(std::string(what) + " blob has format version " + std::to_string(v) +
-                          ", this library reads version " + std::to_string(version));
+                          ", this library reads version" +
+                          (min_version == version ? " " + std::to_string(version)
+                                                  : "s " + std::to_string(min_version) + " to " +
+                                                        std::to_string(version)));
+    if (out_version) *out_version = v;
     const uint64_t n = r.get<uint64_t>();
     if (n != size - header - 4) throw CorruptData(std::string(what) + " blob is truncated or has trailing bytes");
     uint32_t stored;
@@ -117,6 +123,8 @@ Reader unframe(const uint8_t* data, size_t size, const char magic[4], uint32_t v
     return Reader(data + header, n);
 }
 
+/// The version 1 payload: skeleton and key ellipses. The fingerprint hashes only this part,
+/// so editing corrections keeps a binding valid.
 std::vector<uint8_t> rig_payload(const Rig& rig) {
     Writer w;
     const Skeleton& s = rig.skeleton;
@@ -144,13 +152,58 @@ std::vector<uint8_t> rig_payload(const Rig& rig) {
     return w.bytes;
 }
 
+/// Version 2 appends, per sweep and key: int32 count, then per correction the angle, the
+/// center offset (3), the rotation vector (3), scale_a, scale_b (doubles) and int32 muted.
+void put_corrections(Writer& w, const Rig& rig) {
+    for (const Sweep& sw : rig.sweeps)
+        for (const KeyEllipse& k : sw.keys) {
+            w.put<int32_t>(static_cast<int32_t>(k.corrections.size()));
+            for (const KeyCorrection& c : k.corrections) {
+                w.put(c.angle);
+                w.put_glm(c.delta_center);
+                w.put_glm(c.delta_rotation);
+                w.put(c.scale_a);
+                w.put(c.scale_b);
+                w.put<int32_t>(c.muted ? 1 : 0);
+            }
+        }
+}
+
+void get_corrections(Reader& r, Rig& rig) {
+    std::vector<CorrectionRecord> records;
+    for (size_t s = 0; s < rig.sweeps.size(); ++s)
+        for (int k = 0; k < rig.sweeps[s].key_count(); ++k) {
+            const int32_t n = r.get<int32_t>();
+            if (n < 0 || n > kMaxCorrectionsPerKey) throw CorruptData("rig blob has an invalid correction count");
+            for (int i = 0; i < n; ++i) {
+                CorrectionRecord rec;
+                rec.sweep = static_cast<int>(s);
+                rec.key = k;
+                KeyCorrection& c = rec.correction;
+                c.angle = r.get<double>();
+                c.delta_center = r.get_glm<dvec3>();
+                c.delta_rotation = r.get_glm<dvec3>();
+                c.scale_a = r.get<double>();
+                c.scale_b = r.get<double>();
+                const int32_t muted = r.get<int32_t>();
+                if (muted != 0 && muted != 1) throw CorruptData("rig blob has an invalid muted flag");
+                c.muted = muted != 0;
+                records.push_back(rec);
+            }
+        }
+    rig.set_corrections(records);
+}
+
 constexpr char kRigMagic[4] = {'S', 'D', 'R', 'G'};
 constexpr char kBindingMagic[4] = {'S', 'D', 'B', 'N'};
 
 }  // namespace
 
 std::vector<uint8_t> serialize_rig(const Rig& rig) {
-    return frame(kRigMagic, kRigFormatVersion, rig_payload(rig));
+    Writer w;
+    w.bytes = rig_payload(rig);
+    put_corrections(w, rig);
+    return frame(kRigMagic, kRigFormatVersion, w.bytes);
 }
 
 uint64_t rig_fingerprint(const Rig& rig) {
@@ -160,7 +213,8 @@ uint64_t rig_fingerprint(const Rig& rig) {
 }
 
 Rig deserialize_rig(const uint8_t* data, size_t size) {
-    Reader r = unframe(data, size, kRigMagic, kRigFormatVersion, "rig");
+    uint32_t version = 0;
+    Reader r = unframe(data, size, kRigMagic, kRigFormatVersion, "rig", 1, &version);
     const int32_t B = r.get<int32_t>();
     if (B < 1 || B > 100000) throw CorruptData("rig blob has an invalid bone count");
     std::vector<int> parents(B);
@@ -192,6 +246,7 @@ Rig deserialize_rig(const uint8_t* data, size_t size) {
         }
         rig.add_sweep(std::move(keys));
     }
+    if (version >= 2) get_corrections(r, rig);
     if (r.left() != 0) throw CorruptData("rig blob has trailing bytes");
     return rig;
 }

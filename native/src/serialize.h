@@ -13,7 +13,9 @@
 
 namespace sd {
 
-constexpr uint32_t kRigFormatVersion = 1;
+/// Rig blobs: version 2 adds the key-ellipse corrections (Sect. 4.2) after the version 1
+/// payload; version 1 blobs are still read (as rigs without corrections).
+constexpr uint32_t kRigFormatVersion = 2;
 constexpr uint32_t kBindingFormatVersion = 1;
 
 std::vector<uint8_t> serialize_rig(const Rig& rig);

@@ -187,6 +187,27 @@ SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sw
 SD_API sd_status sd_deformer_get_volume_iterations(const sd_deformer* deformer,
                                                    int32_t sweep_count, int32_t* iterations);
 
+/* ---- measurements (reports and tests) ---------------------------------------------- */
+
+/* Volume enclosed by a closed, outward-oriented triangle mesh (units^3).
+ * positions #V*3, triangles #T*3 (indices in [0, V)). */
+SD_API sd_status sd_measure_volume(int32_t vertex_count, const float* positions,
+                                   int32_t triangle_count, const int32_t* triangles,
+                                   double* out_volume);
+/* Pairs of triangles that intersect and share no vertex, by an exact test, among the
+ * `subset_count` triangles listed in `subset` (NULL/0 = all triangles). */
+SD_API sd_status sd_measure_intersections(int32_t vertex_count, const float* positions,
+                                          int32_t triangle_count, const int32_t* triangles,
+                                          int32_t subset_count, const int32_t* subset,
+                                          int64_t* out_pairs);
+/* Cross-section areas: for each plane i (points #count*3, normals #count*3) the area of the
+ * cut loop surrounding points[i] (else the nearest loop within `reach`), 0 when none. */
+SD_API sd_status sd_measure_cross_sections(int32_t vertex_count, const float* positions,
+                                           int32_t triangle_count, const int32_t* triangles,
+                                           int32_t count, const float* points,
+                                           const float* normals, float reach,
+                                           double* out_areas);
+
 /* ---- automatic fitting (Sect. 3.2, 3.5) ---- */
 
 /*
@@ -315,6 +336,109 @@ SD_API sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_coun
 /* The blob's bytes (valid until it is destroyed) and size; NULL and 0 for a NULL blob. */
 SD_API const uint8_t* sd_dmap_blob_data(const sd_dmap_blob* blob, int64_t* out_size);
 SD_API void sd_dmap_blob_destroy(sd_dmap_blob* blob);
+
+/* ---- key-ellipse editing (Sect. 4.2) ---- */
+
+/*
+ * Pose-space corrections of key ellipses: the artist moves, turns or scales a key ellipse
+ * while the character is in some pose, and the edit is stored as a correction keyed by the
+ * key's JOINT ANGLE there, so it acts near that angle only.
+ *
+ * The joint of a key: for a joint key its own (joint_parent = upper link, bone = lower
+ * link); for an intermediate key the joint key of its sweep nearest along the rest curve (a
+ * tie goes to the one nearer the body); in a sweep without joint keys, the key's bone and
+ * that bone's parent (a root bone has no joint: its angle is always 0). The JOINT ANGLE is
+ * the angle, in radians in [0, pi], between the directions (tail - head) of the two links,
+ * each turned by its bone's rotation in the pose: 0 for a straight limb, about 2.6 for an
+ * elbow bent by 150 degrees from straight. It ignores twist.
+ *
+ * A correction is (angle, values[8], muted) with
+ *   values[0..2]  center offset, along the key's own axes (major, minor, normal) in the pose
+ *   values[3..5]  small rotation, a rotation vector (axis * radians) in the key's frame
+ *   values[6..7]  factors of the half-axes a and b (multiplicative, 1 = unchanged)
+ * Limits: angle in [0, pi]; |offset| <= 10 x the key's larger rest half-axis; |rotation| <=
+ * pi/2; factors in [0.1, 10]; at most 64 corrections per key. The identity is all zero but
+ * values[6] = values[7] = 1.
+ *
+ * In a pose, each key's correction is the interpolation over its joint angle of its
+ * non-muted corrections (closer than 1e-3 rad: averaged) plus, unless one of them lies
+ * within 1e-3 rad of the key's rest angle, the rest angle with no correction: a monotone
+ * cubic Hermite spline per value (offset, rotation vector, log of the factors) with
+ * Fritsch-Carlson slopes inside, zero slope at the first and last sample and constant
+ * beyond them. So a correction made at full flexion leaves the rest pose exactly as it was,
+ * and one made at the rest angle shifts every pose. It is applied to the key placed by
+ * Sect. 4.1 (center + R offset, orientation R exp(rotation), a and b times the factors),
+ * before C(t) and Q(t) are built; the volume controller (Sect. 4.4) starts from the scaled
+ * half-axes and keeps what the scaling added (its target is the corrected rest volume V0
+ * plus the volume the factors add in that pose). V0 is the rig's rest volume unless a
+ * correction lies at a rest angle: then it is the volume of the rest pose with those
+ * corrections' offsets and rotations.
+ *
+ * Corrections are part of the rig and of its blob (format version 2; version 1 blobs still
+ * load), but not of its fingerprint: a binding made before an edit stays valid. A deformer
+ * copies the rig: give it the edited corrections with sd_deformer_set_rig_corrections (or
+ * create it again). Correction lists are sorted by angle; indices refer to that order.
+ */
+
+/* The joint a key's corrections are keyed by: its bones (parent -1: none) and its rest angle.
+ * Any output may be NULL. */
+SD_API sd_status sd_rig_key_joint(const sd_rig* rig, int32_t sweep, int32_t key,
+                                  int32_t* parent_bone, int32_t* child_bone, float* rest_angle);
+/* The key's joint angle in a pose (#B*16 as for sd_deform; NULL = the rest pose). */
+SD_API sd_status sd_rig_key_joint_angle(const sd_rig* rig, int32_t sweep, int32_t key,
+                                        int32_t bone_count, const float* pose, float* out_angle);
+/* Adds a correction, or replaces the one within 1e-3 rad of `angle`. values #8 as above.
+ * out_index (may be NULL) receives its index in the key's sorted list. */
+SD_API sd_status sd_rig_set_key_correction(sd_rig* rig, int32_t sweep, int32_t key, float angle,
+                                           const float* values, int32_t muted, int32_t* out_index);
+SD_API sd_status sd_rig_remove_key_correction(sd_rig* rig, int32_t sweep, int32_t key,
+                                              int32_t index);
+SD_API sd_status sd_rig_mute_key_correction(sd_rig* rig, int32_t sweep, int32_t key,
+                                            int32_t index, int32_t muted);
+/* Number of corrections of a key, or -1 (and an error) for a bad index. */
+SD_API int32_t sd_rig_key_correction_count(const sd_rig* rig, int32_t sweep, int32_t key);
+/* A key's corrections: count must be sd_rig_key_correction_count; angles #count,
+ * values #count*8, muted #count (any may be NULL). */
+SD_API sd_status sd_rig_get_key_corrections(const sd_rig* rig, int32_t sweep, int32_t key,
+                                            int32_t count, float* angles, float* values,
+                                            int32_t* muted);
+/* The interpolated correction of a key at a joint angle (values #8). */
+SD_API sd_status sd_rig_key_correction_at(const sd_rig* rig, int32_t sweep, int32_t key,
+                                          float angle, float* values);
+/* All corrections of the rig, ordered by sweep, key and angle (-1 for a NULL rig). */
+SD_API int32_t sd_rig_correction_count(const sd_rig* rig);
+/* count must be sd_rig_correction_count; sweeps, keys, angles #count, values #count*8,
+ * muted #count (any may be NULL). */
+SD_API sd_status sd_rig_get_corrections(const sd_rig* rig, int32_t count, int32_t* sweeps,
+                                        int32_t* keys, float* angles, float* values,
+                                        int32_t* muted);
+/* Replaces every correction of the rig (count 0 removes them all), all or nothing; arrays as
+ * in sd_rig_get_corrections (muted may be NULL: none muted). */
+SD_API sd_status sd_rig_set_corrections(sd_rig* rig, int32_t count, const int32_t* sweeps,
+                                        const int32_t* keys, const float* angles,
+                                        const float* values, const int32_t* muted);
+/*
+ * The key ellipses of a sweep in a pose (NULL = rest): key_count must be the sweep's;
+ * centers #K*3, orientations #K*4 (w,x,y,z), half_axes #K*2 (before volume control), angles
+ * #K the joint angles; any may be NULL. corrected = 0: Sect. 4.1's placement only; 1: with
+ * the corrections.
+ */
+SD_API sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone_count,
+                                  const float* pose, int32_t corrected, int32_t key_count,
+                                  float* centers, float* orientations, float* half_axes,
+                                  float* angles);
+/* The corrected sweep in a pose (NULL = rest), before volume control, at `count` parameters
+ * u in [0, 1] as in sd_rig_evaluate_sweep: centers #count*3, rotations #count*9
+ * (column-major), half_axes #count*2; any may be NULL. */
+SD_API sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t bone_count,
+                                             const float* pose, int32_t count, const float* u,
+                                             float* centers, float* rotations, float* half_axes);
+/* Replaces the corrections of the deformer's copy of the rig (as sd_rig_set_corrections).
+ * Cheap, for live edits and animated corrections; the binding stays valid. */
+SD_API sd_status sd_deformer_set_rig_corrections(sd_deformer* deformer, int32_t count,
+                                                 const int32_t* sweeps, const int32_t* keys,
+                                                 const float* angles, const float* values,
+                                                 const int32_t* muted);
 
 #ifdef __cplusplus
 }

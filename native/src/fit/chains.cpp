@@ -490,10 +490,13 @@ BoneOwners bone_owners(const Skeleton& s, const ChainSet& set) {
     BoneOwners o;
     o.chain.assign(B, -1);
     o.attached.assign(B, -1);
+    o.inner.assign(B, 0);
     std::vector<char> decided(B, 0);
     for (size_t c = 0; c < set.chains.size(); ++c)
-        for (int b : set.chains[c].bones) {
+        for (size_t i = 0; i < set.chains[c].bones.size(); ++i) {
+            const int b = set.chains[c].bones[i];
             o.chain[b] = static_cast<int>(c);
+            o.inner[b] = static_cast<int>(i) < set.chains[c].first_swept;
             decided[b] = 1;
         }
     for (size_t c = 0; c < set.chains.size(); ++c) {

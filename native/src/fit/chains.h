@@ -18,9 +18,10 @@ struct Chain {
     ChainKind kind = ChainKind::Custom;
     int side = 0;            ///< +1 the character's left, -1 its right, 0 centre or unknown
     std::string name;        ///< "torso", "neck", "arm_l", "leg_r", "chain_3", ...
-    std::vector<int> bones;  ///< links; their skin weights go to this chain's sweep
+    std::vector<int> bones;  ///< links; the swept ones' skin weights go to this chain's sweep
     /// bones[first_swept] is where the sweep starts: 1 when bones[0] is a clavicle (or a
-    /// hip bone) that runs inside the torso, 0 otherwise.
+    /// hip bone) that runs inside the torso, 0 otherwise. Such an inner link's skin weight
+    /// stays with the bone itself (see BoneOwners::inner).
     int first_swept = 0;
     int end_bone = -1;      ///< the bone beyond the last link (hand, foot, head, neck), or -1
     int parent_chain = -1;  ///< the chain it hangs from (limbs, neck: the torso), or -1
@@ -63,10 +64,15 @@ ChainSet find_chains(const Skeleton& skeleton, const std::vector<std::string>& n
 /// @throws InvalidInput on an index out of range, a bone in two chains, a broken path.
 ChainSet chains_from_lists(const Skeleton& skeleton, const std::vector<std::vector<int>>& lists);
 
-/// Which chain's sweep carries each bone's skin weights.
+/// Which chain each bone belongs to, and which chain's sweep carries its skin weights.
 struct BoneOwners {
     std::vector<int> chain;     ///< #B chain index, or -1 for a rigid (bone-driven) bone
     std::vector<int> attached;  ///< #B for rigid bones the chain they hang from (hand -> arm), or -1
+    /// #B: 1 for an inner link, a link before the chain's first swept one (a clavicle, a hip
+    /// bone). It belongs to its chain (its skin counts as the chain's part when the keys are
+    /// fitted) but the sweep starts after it, so its skin weight drives the skin with the
+    /// bone itself (see weights_from_skin).
+    std::vector<char> inner;
 };
 
 /// Links belong to their chain; the end bone of a chain (hand, foot, head) and everything

@@ -237,9 +237,16 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
     std::vector<int> nearest;
     if (r.vertices_from_nearest_bone > 0) nearest = nearest_bones(mesh, s);
 
+    // The sweep a bone's skin weight goes to. An inner link (clavicle, hip bone) has none: the
+    // sweep starts at the joint after it, and skin on it (chest, back, the base of the neck)
+    // bound to the sweep would lie before the sweep's first plane and turn rigidly with its
+    // first key about the shoulder, half the arm's swing, while the skin beside it stays with
+    // the torso: a fold across the chest when the arms go up. The bone itself drives it, as
+    // the skinning does, and the transition to the arm's sweep is the skin's own.
     const auto chain_of = [&](int b) {
-        return b >= 0 && b < B && owners.chain[b] >= 0 && chain_sweep[owners.chain[b]] >= 0 ? owners.chain[b]
-                                                                                            : -1;
+        if (b < 0 || b >= B || owners.chain[b] < 0 || chain_sweep[owners.chain[b]] < 0) return -1;
+        if (!owners.inner.empty() && owners.inner[b]) return -1;
+        return owners.chain[b];
     };
     std::vector<float> split(static_cast<size_t>(V) * C, 0.0f), sweep_total(V, 0.0f);
     std::vector<char> active(V, 0);

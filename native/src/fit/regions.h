@@ -65,11 +65,12 @@ struct RegionOptions {
 };
 
 /// Seeds from skin weights: a vertex's weight on chain c's sweep is the summed weight of
-/// c's link bones; its weights on rigid bones (hand, fingers, feet, head, and the bones of
-/// any chain without a sweep) stay the skin's own. The split among sweeps is then smoothed
-/// over the one-ring, so shoulder, hip and neck transitions change gradually; the split
-/// between sweeps and rigid parts is the skin's. Vertices without skin weight take their
-/// nearest bone.
+/// c's swept link bones; its weights on rigid bones (hand, fingers, feet, head, the bones of
+/// any chain without a sweep, and inner links such as a clavicle, whose skin on the chest
+/// and back a sweep starting at the shoulder would swing with the arm) stay the skin's own.
+/// The split among sweeps is then smoothed over the one-ring, so shoulder, hip and neck
+/// transitions change gradually; the split between sweeps and rigid parts is the skin's.
+/// Vertices without skin weight take their nearest bone.
 /// @param chain_sweep  #chains: sweep index in the rig, -1 if the chain has no sweep
 RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& skeleton, const BoneOwners& owners,
                                 const std::vector<int>& chain_sweep, int slots, const int32_t* bones,

@@ -1,0 +1,523 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The demo, run inside Blender by scripts/demo:
+
+    blender -b --factory-startup --python scripts/demo_scene.py -- --out DIR
+            [--character FILE.blend|.glb|.gltf|.fbx] [--action NAME] [--zip ADDON.zip]
+
+It installs the extension, loads the character (default: the built-in one in blend_fixtures/),
+puts three copies side by side — Blender's Armature modifier (plain), the Armature modifier with
+"Preserve Volume", and Sweep Deform — plays the action, and writes to DIR:
+
+  poses/<pose>.png        one picture per key pose, the three methods left to right
+  poses/<pose>_<joint>.png close-ups of the elbow, knee and wrist where the pose bends them
+  motion/frame_NNNN.png   the motion as a short clip of frames
+  report.json, report.md  per pose and method: volume change of each limb and of the body,
+                          intersecting skin triangle pairs at each joint, the smallest forearm
+                          cross-section relative to rest, and ms per frame
+
+The figures come from the core's measurement functions (sd_measure_*), the same for all three
+methods, on the evaluated meshes Blender produces.
+"""
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import bpy
+import numpy as np
+from mathutils import Vector
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "tests", "blender"))
+import install  # noqa: E402  (the tests' installer: the same path a user takes)
+
+METHODS = [
+    ("armature", "Armature modifier"),
+    ("preserve_volume", "Armature, Preserve Volume"),
+    ("sweep_deform", "Sweep Deform"),
+]
+DEFAULT_POSES = ["rest", "walk", "arms_up", "knee_bend", "elbow_bend", "forearm_twist", "spine_bend"]
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="demo_scene.py")
+    p.add_argument("--out", required=True)
+    p.add_argument("--character", default=os.path.join(REPO, "blend_fixtures", "character.blend"))
+    p.add_argument("--action", default="")
+    p.add_argument("--zip", default=install.default_zip())
+    p.add_argument("--motion-step", type=int, default=6, help="render every Nth frame of the clip")
+    p.add_argument("--timing-frames", type=int, default=40)
+    return p.parse_args(argv)
+
+
+# ---- scene ------------------------------------------------------------------------------
+
+def load_character(path, action_name):
+    """Opens or imports the character; returns (armature, body)."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".blend":
+        bpy.ops.wm.open_mainfile(filepath=path)
+    else:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        if ext in (".glb", ".gltf"):
+            bpy.ops.import_scene.gltf(filepath=path)
+        elif ext == ".fbx":
+            bpy.ops.import_scene.fbx(filepath=path)
+        else:
+            sys.exit(f"demo: unsupported character file {path} (use .blend, .glb, .gltf or .fbx)")
+    arms = [o for o in bpy.context.scene.objects if o.type == 'ARMATURE']
+    if not arms:
+        sys.exit(f"demo: {path} has no armature")
+    bodies = [o for o in bpy.context.scene.objects if o.type == 'MESH' and any(
+        m.type == 'ARMATURE' and m.object in arms for m in o.modifiers)]
+    if not bodies:
+        sys.exit(f"demo: {path} has no mesh deformed by an armature")
+    body = max(bodies, key=lambda o: len(o.data.vertices))
+    arm = next(m.object for m in body.modifiers if m.type == 'ARMATURE' and m.object in arms)
+    for o in list(bpy.context.scene.objects):
+        if o not in (arm, body) and o.type in ('MESH', 'ARMATURE', 'CURVE', 'FONT', 'EMPTY'):
+            o.hide_render = True
+    if action_name:
+        action = bpy.data.actions.get(action_name)
+        if action is None:
+            sys.exit(f"demo: no action named {action_name!r}; have {[a.name for a in bpy.data.actions]}")
+        arm.animation_data_create().action = action
+    if not (arm.animation_data and arm.animation_data.action):
+        sys.exit("demo: the armature has no action; give one with --action")
+    return arm, body
+
+
+def key_poses(scene, action):
+    """[(name, frame)]: the timeline markers, or evenly spread frames of the action."""
+    marks = {m.name: m.frame for m in scene.timeline_markers}
+    if marks:
+        named = [(n, marks[n]) for n in DEFAULT_POSES if n in marks]
+        rest = [(n, f) for n, f in sorted(marks.items(), key=lambda x: x[1]) if n not in DEFAULT_POSES]
+        return named + rest
+    start, end = (int(x) for x in action.frame_range)
+    return [("rest", start)] + [(f"frame_{f}", f) for f in np.linspace(start, end, 6).astype(int)[1:]]
+
+
+def make_columns(arm, body, spacing):
+    """Three (armature, body) pairs side by side, one per method; the original is the first."""
+    columns = []
+    for i, (key, label) in enumerate(METHODS):
+        if i == 0:
+            a, b = arm, body
+        else:
+            a = arm.copy()  # shares the armature data; copies the animation data (action, slot)
+            b = body.copy()
+            b.data = body.data.copy()
+            for coll in arm.users_collection:
+                coll.objects.link(a)
+            for coll in body.users_collection:
+                coll.objects.link(b)
+            if body.parent == arm:
+                b.parent = a
+            a.location.x += i * spacing
+        mod = next(m for m in b.modifiers if m.type == 'ARMATURE')
+        mod.object = a
+        mod.use_deform_preserve_volume = key == "preserve_volume"
+        columns.append({"key": key, "label": label, "arm": a, "body": b})
+    bpy.context.view_layer.update()
+    sweep = columns[2]
+    with bpy.context.temp_override(object=sweep["body"], active_object=sweep["body"],
+                                   selected_objects=[sweep["body"]]):
+        result = bpy.ops.object.sweep_deform_add(armature=sweep["arm"].name)
+    if result != {'FINISHED'}:
+        sys.exit(f"demo: binding Sweep Deform failed: {sweep['body'].sweep_deform.message}")
+    return columns
+
+
+def world_bbox(objs):
+    pts = np.array([o.matrix_world @ Vector(c) for o in objs for c in o.bound_box])
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def setup_render(scene, width, height):
+    scene.render.engine = 'BLENDER_WORKBENCH'
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.resolution_percentage = 100
+    scene.render.image_settings.file_format = 'PNG'
+    scene.display.shading.light = 'STUDIO'
+    scene.display.shading.color_type = 'SINGLE'
+    scene.display.shading.single_color = (0.8, 0.62, 0.52)
+    scene.display.shading.show_cavity = True
+    scene.display.render_aa = '8'
+    if scene.world is None:
+        scene.world = bpy.data.worlds.new("World")
+    scene.world.color = (0.92, 0.92, 0.92)
+
+
+def front_camera(scene, lo, hi, margin=1.08):
+    """Orthographic camera looking along +Y (characters face -Y) framing the box [lo, hi]."""
+    cam = scene.camera
+    if cam is None or cam.type != 'CAMERA':
+        cam = bpy.data.objects.new("DemoCamera", bpy.data.cameras.new("DemoCamera"))
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+    cam.data.type = 'ORTHO'
+    center = (lo + hi) / 2
+    w, h = hi[0] - lo[0], hi[2] - lo[2]
+    aspect = scene.render.resolution_x / scene.render.resolution_y
+    cam.data.ortho_scale = margin * max(w, h * aspect)
+    cam.location = (center[0], lo[1] - 10.0, center[2])
+    cam.rotation_euler = (np.pi / 2, 0.0, 0.0)
+    cam.data.clip_end = 100.0
+    return cam
+
+
+def add_label(text, location, size):
+    curve = bpy.data.curves.new("label", 'FONT')
+    curve.body = text
+    curve.align_x = 'CENTER'
+    curve.size = size
+    obj = bpy.data.objects.new("label", curve)
+    obj.location = location
+    obj.rotation_euler = (np.pi / 2, 0.0, 0.0)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def render(scene, path):
+    scene.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+
+
+#: Poses that get a close-up, and of which joint of the character's left side.
+CLOSE_UPS = {"elbow_bend": "elbow_l", "knee_bend": "knee_l", "forearm_twist": "forearm_l"}
+
+
+def render_close_up(scene, columns, chains, joint, size, path):
+    """The joint seen from the character's left side (+X), one picture per method, tiled
+    left to right. Other columns are hidden meanwhile (they stand on that side)."""
+    saved = (scene.render.resolution_x, scene.render.resolution_y, scene.camera.location.copy(),
+             scene.camera.rotation_euler.copy(), scene.camera.data.ortho_scale)
+    scene.render.resolution_x = scene.render.resolution_y = 420
+    tiles = []
+    for col in columns:
+        for other in columns:
+            other["body"].hide_render = other is not col
+        where = joint_position(col, chains, joint)
+        if where is None:
+            continue
+        cam = scene.camera
+        cam.location = (where[0] + 10.0, where[1], where[2])
+        cam.rotation_euler = (np.pi / 2, 0.0, np.pi / 2)
+        cam.data.ortho_scale = size
+        tile = path[:-4] + f"_{col['key']}.png"
+        render(scene, tile)
+        img = bpy.data.images.load(tile)
+        px = np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4)
+        bpy.data.images.remove(img)
+        os.remove(tile)
+        tiles.append(px)
+    for col in columns:
+        col["body"].hide_render = False
+    (scene.render.resolution_x, scene.render.resolution_y, scene.camera.location,
+     scene.camera.rotation_euler, scene.camera.data.ortho_scale) = saved
+    if tiles:
+        strip = np.concatenate(tiles, axis=1)
+        img = bpy.data.images.new("closeup", strip.shape[1], strip.shape[0], alpha=True)
+        img.pixels.foreach_set(strip.ravel())
+        img.filepath_raw = path
+        img.file_format = 'PNG'
+        img.save()
+        bpy.data.images.remove(img)
+
+
+def joint_position(col, chains, joint):
+    """World position of a named joint of one column ('elbow_l', 'knee_l', 'forearm_l')."""
+    kind, side = joint.split("_")
+    chain = next((c for c in chains if c["kind"] == ("leg" if kind == "knee" else "arm")
+                  and c["name"].endswith("_" + side)), None)
+    if chain is None:
+        return None
+    pb = col["arm"].pose.bones.get(chain["bone_names"][-1])
+    if pb is None:
+        return None
+    m = col["arm"].matrix_world
+    p = pb.head if kind != "forearm" else (pb.head + pb.tail) / 2
+    return np.array(m @ p)
+
+
+# ---- measurements ------------------------------------------------------------------------
+
+def evaluated_positions(obj, depsgraph):
+    ev = obj.evaluated_get(depsgraph)
+    me = ev.to_mesh()
+    co = np.empty(len(me.vertices) * 3, np.float32)
+    me.vertices.foreach_get("co", co)
+    ev.to_mesh_clear()
+    return co.reshape(-1, 3)
+
+
+def rest_triangles(mesh):
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", tris)
+    return tris.reshape(-1, 3)
+
+
+def chains_from_report(body):
+    """The fitted chains (kind, bone names, end bone) from the binding's report."""
+    try:
+        report = json.loads(body.get("_sweep_deform_fit_report", "") or "{}")
+    except ValueError:
+        report = {}
+    return [c for c in report.get("chains", []) if c.get("sweep", -1) >= 0]
+
+
+def limb_regions(body, chains):
+    """Per chain: the vertices whose heaviest vertex group is one of the chain's bones."""
+    names = {g.index: g.name for g in body.vertex_groups}
+    dominant = np.full(len(body.data.vertices), -1, np.int64)
+    best = np.zeros(len(body.data.vertices))
+    for v in body.data.vertices:
+        for g in v.groups:
+            if g.weight > best[v.index]:
+                best[v.index], dominant[v.index] = g.weight, g.group
+    group_names = np.array([names.get(i, "") for i in range(max(names) + 1)] if names else [""])
+    dom_names = np.where(dominant >= 0, group_names[np.clip(dominant, 0, None)], "")
+    regions = {}
+    for c in chains:
+        regions[c["name"]] = np.isin(dom_names, c["bone_names"])
+    return regions
+
+
+def posed_segments(arm, body, bone_names):
+    """Bone (head, tail) pairs in the body's object space, posed."""
+    to_body = body.matrix_world.inverted() @ arm.matrix_world
+    segs = []
+    for n in bone_names:
+        pb = arm.pose.bones.get(n)
+        if pb is not None:
+            segs.append((np.array(to_body @ pb.head), np.array(to_body @ pb.tail)))
+    return segs
+
+
+def region_volume(pos, tris, vertex_mask, segments):
+    """Volume between a limb's skin and its bones: Σ signed tetrahedra (apex = the nearest
+    point on the limb's bones to each triangle's centroid) over the triangles of the region.
+    Exact for a tube around a straight bone; its change measures how much flesh a method
+    gains or loses as the limb bends."""
+    t = tris[vertex_mask[tris].all(axis=1)]
+    if len(t) == 0 or not segments:
+        return 0.0
+    a, b, c = pos[t[:, 0]], pos[t[:, 1]], pos[t[:, 2]]
+    centroid = (a + b + c) / 3
+    best_d, apex = np.full(len(t), np.inf), np.zeros_like(centroid)
+    for h, e in segments:
+        d = e - h
+        s = np.clip(((centroid - h) @ d) / max(d @ d, 1e-20), 0, 1)
+        p = h + s[:, None] * d
+        dist = np.linalg.norm(centroid - p, axis=1)
+        closer = dist < best_d
+        best_d[closer], apex[closer] = dist[closer], p[closer]
+    return float(np.einsum("ij,ij->i", a - apex, np.cross(b - apex, c - apex)).sum() / 6.0)
+
+
+def joints(arm, body, chains):
+    """{joint name: (position in body space, radius of its region)}: elbows, knees,
+    shoulders, hips and the neck base, found from the fitted chains."""
+    to_body = body.matrix_world.inverted() @ arm.matrix_world
+    out = {}
+    for c in chains:
+        bones = [arm.pose.bones.get(n) for n in c["bone_names"]]
+        if any(b is None for b in bones):
+            continue
+        side = c["name"].split("_")[-1] if "_" in c["name"] else ""
+        length = sum(b.length for b in bones)
+        if c["kind"] in ("arm", "leg") and len(bones) >= 2:
+            mid = "elbow" if c["kind"] == "arm" else "knee"
+            top = "shoulder" if c["kind"] == "arm" else "hip"
+            out[f"{mid}_{side}"] = (np.array(to_body @ bones[-1].head), 0.22 * length)
+            out[f"{top}_{side}"] = (np.array(to_body @ bones[-2].head), 0.22 * length)
+        elif c["kind"] == "neck":
+            out["neck"] = (np.array(to_body @ bones[0].head), 0.5 * length)
+    return out
+
+
+def forearm_planes(arm, body, chains, fractions=(0.35, 0.5, 0.65, 0.8, 0.9)):
+    """Planes orthogonal to each forearm at fractions of its length: (points, normals)."""
+    to_body = body.matrix_world.inverted() @ arm.matrix_world
+    pts, nrm = [], []
+    for c in chains:
+        if c["kind"] != "arm":
+            continue
+        fore = arm.pose.bones.get(c["bone_names"][-1])
+        if fore is None:
+            continue
+        h, t = np.array(to_body @ fore.head), np.array(to_body @ fore.tail)
+        for f in fractions:
+            pts.append(h + f * (t - h))
+            nrm.append((t - h) / np.linalg.norm(t - h))
+    return np.array(pts, np.float32).reshape(-1, 3), np.array(nrm, np.float32).reshape(-1, 3)
+
+
+def measure(columns, chains, tris, native, regions, height):
+    """Figures of every method at the current frame."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    out = {}
+    for col in columns:
+        arm, body = col["arm"], col["body"]
+        pos = evaluated_positions(body, dg)
+        fig = {"body_volume": native.measure_volume(pos, tris)}
+        fig["limb_volumes"] = {
+            c["name"]: region_volume(pos, tris, regions[c["name"]], posed_segments(arm, body, c["bone_names"]))
+            for c in chains}
+        centroids = pos[tris].mean(axis=1)
+        fig["intersections"] = {}
+        for name, (p, r) in joints(arm, body, chains).items():
+            subset = np.nonzero(np.linalg.norm(centroids - p, axis=1) < r)[0].astype(np.int32)
+            fig["intersections"][name] = int(native.measure_intersections(pos, tris, subset)) if len(subset) else 0
+        points, normals = forearm_planes(arm, body, chains)
+        fig["forearm_sections"] = (native.measure_cross_sections(pos, tris, points, normals, 0.05 * height).tolist()
+                                   if len(points) else [])
+        out[col["key"]] = fig
+    return out
+
+
+def time_methods(scene, columns, frames):
+    """ms per frame of each method alone: frame changes with only that method's body
+    evaluated, minus the same with no body (armature evaluation and scene overhead)."""
+    def run(active):
+        for col in columns:
+            col["body"].hide_viewport = col is not active
+        bpy.context.view_layer.update()
+        dg = bpy.context.evaluated_depsgraph_get()
+        scene.frame_set(frames[0])
+        t0 = time.perf_counter()
+        for f in frames:
+            scene.frame_set(f)
+            if active is not None:
+                active["body"].evaluated_get(dg)
+        return (time.perf_counter() - t0) * 1000.0 / len(frames)
+    base = min(run(None) for _ in range(2))
+    result = {col["key"]: max(0.0, min(run(col) for _ in range(2)) - base) for col in columns}
+    for col in columns:
+        col["body"].hide_viewport = False
+    return result
+
+
+# ---- report ------------------------------------------------------------------------------
+
+def relative(figs, rest):
+    """Per method: the figures relative to the rest pose (percent changes, ratios)."""
+    rel = {}
+    for key, f in figs.items():
+        r = rest[key]
+        limb = {n: 100.0 * (v / r["limb_volumes"][n] - 1.0) if r["limb_volumes"][n] else 0.0
+                for n, v in f["limb_volumes"].items()}
+        sections = [s / rs for s, rs in zip(f["forearm_sections"], r["forearm_sections"]) if rs > 0]
+        rel[key] = {
+            "body_volume_change_percent": 100.0 * (f["body_volume"] / r["body_volume"] - 1.0),
+            "limb_volume_change_percent": limb,
+            "intersecting_pairs": f["intersections"],
+            "smallest_forearm_section_vs_rest": min(sections) if sections else None,
+        }
+    return rel
+
+
+def write_report(out_dir, info, poses, timing):
+    with open(os.path.join(out_dir, "report.json"), "w") as f:
+        json.dump({"character": info, "ms_per_frame": timing, "poses": poses}, f, indent=2)
+    lines = [f"# Sweep Deform demo report: {info['name']}", "",
+             f"{info['vertices']} vertices, {info['triangles']} triangles, Blender {bpy.app.version_string}. "
+             "Volumes and cross-sections are relative to the same method at the rest pose; "
+             "intersecting pairs are pairs of skin triangles near the joint that cross each other "
+             "(exact test). Limb volume: the flesh between the skin of the limb's region and its bones.", "",
+             "## Time per frame (pose change to evaluated mesh)", "",
+             "| method | ms per frame |", "|---|---|"]
+    lines += [f"| {label} | {timing[key]:.2f} |" for key, label in METHODS]
+    for pose in poses:
+        lines += ["", f"## {pose['name']} (frame {pose['frame']})", "", f"![{pose['name']}](poses/{pose['name']}.png)", ""]
+        limbs = sorted(next(iter(pose["methods"].values()))["limb_volume_change_percent"])
+        joints_ = sorted(next(iter(pose["methods"].values()))["intersecting_pairs"])
+        lines += ["| method | body volume | " + " | ".join(f"{n} volume" for n in limbs) +
+                  " | intersecting pairs (" + ", ".join(joints_) + ") | smallest forearm section |",
+                  "|---" * (3 + len(limbs)) + "|"]
+        for key, label in METHODS:
+            m = pose["methods"][key]
+            sec = m["smallest_forearm_section_vs_rest"]
+            lines.append(f"| {label} | {m['body_volume_change_percent']:+.2f} % | " +
+                         " | ".join(f"{m['limb_volume_change_percent'][n]:+.1f} %" for n in limbs) +
+                         " | " + ", ".join(str(m["intersecting_pairs"][j]) for j in joints_) +
+                         f" | {'-' if sec is None else f'{100 * sec:.0f} %'} |")
+    with open(os.path.join(out_dir, "report.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+
+
+# ---- main --------------------------------------------------------------------------------
+
+def main():
+    args = parse_args()
+    out_dir = os.path.abspath(args.out)
+    os.makedirs(os.path.join(out_dir, "poses"), exist_ok=True)
+    os.makedirs(os.path.join(out_dir, "motion"), exist_ok=True)
+    arm, body = load_character(os.path.abspath(args.character), args.action)
+    install.install(args.zip)
+    from bl_ext.user_default.sweep_deform import native  # noqa: E402 (after install)
+
+    scene = bpy.context.scene
+    action = arm.animation_data.action
+    poses = key_poses(scene, action)
+    rest_frame = dict(poses).get("rest", poses[0][1])
+    scene.frame_set(rest_frame)
+    lo, hi = world_bbox([body])
+    height = float(hi[2] - lo[2])
+    columns = make_columns(arm, body, spacing=1.25 * max(hi[0] - lo[0], 0.6 * height))
+    chains = chains_from_report(columns[2]["body"])
+    if not chains:
+        sys.exit("demo: the fitting found no chains; see the Sweep Deform panel's message")
+    tris = rest_triangles(body.data)
+    regions = limb_regions(body, chains)
+    print(f"demo: {len(body.data.vertices)} vertices, chains {[c['name'] for c in chains]}", flush=True)
+
+    setup_render(scene, 1500, 720)
+    blo, bhi = world_bbox([c["body"] for c in columns])
+    for col in columns:
+        clo, chi = world_bbox([col["body"]])
+        add_label(col["label"], ((clo[0] + chi[0]) / 2, clo[1] - 0.3, chi[2] + 0.05 * height), 0.045 * height)
+    full_lo, full_hi = blo - np.array([0, 0, 0.02 * height]), bhi + np.array([0, 0, 0.12 * height])
+
+    rest_figs = None
+    report_poses = []
+    for name, frame in poses:
+        scene.frame_set(frame)
+        bpy.context.view_layer.update()
+        figs = measure(columns, chains, tris, native, regions, height)
+        if rest_figs is None:
+            scene.frame_set(rest_frame)
+            rest_figs = measure(columns, chains, tris, native, regions, height)
+            scene.frame_set(frame)
+        report_poses.append({"name": name, "frame": frame, "methods": relative(figs, rest_figs)})
+        front_camera(scene, full_lo, full_hi)
+        render(scene, os.path.join(out_dir, "poses", f"{name}.png"))
+        if name in CLOSE_UPS:
+            joint = CLOSE_UPS[name]
+            render_close_up(scene, columns, chains, joint, 0.18 * height,
+                            os.path.join(out_dir, "poses", f"{name}_{joint}.png"))
+        print(f"demo: pose {name} (frame {frame}) rendered and measured", flush=True)
+
+    # The motion as a clip of frames.
+    scene.render.resolution_x, scene.render.resolution_y = 750, 360
+    start, end = (int(x) for x in action.frame_range)
+    for i, f in enumerate(range(start, end + 1, max(1, args.motion_step))):
+        scene.frame_set(f)
+        render(scene, os.path.join(out_dir, "motion", f"frame_{i:04d}.png"))
+
+    step = max(1, (end - start) // max(1, args.timing_frames))
+    timing = time_methods(scene, columns, list(range(start, end + 1, step)))
+    info = {"name": os.path.basename(args.character), "vertices": len(body.data.vertices),
+            "triangles": int(len(tris)), "chains": [c["name"] for c in chains],
+            "blender": bpy.app.version_string}
+    write_report(out_dir, info, report_poses, timing)
+    print(f"demo: wrote {out_dir}/report.md, report.json, poses/ and motion/", flush=True)
+
+
+if __name__ == "__main__":
+    main()
