@@ -80,6 +80,11 @@ RigP = ctypes.POINTER(_RigT)
 BindingP = ctypes.POINTER(_BindingT)
 DeformerP = ctypes.POINTER(_DeformerT)
 FitResultP = ctypes.POINTER(_FitResultT)
+class _AnatomyT(_Opaque):
+    pass
+
+
+AnatomyP = ctypes.POINTER(_AnatomyT)
 
 _array_types = {}
 
@@ -165,6 +170,23 @@ SIGNATURES = {
     "sd_measure_volume": (Status, [c_int32, F32, c_int32, I32, P_DOUBLE], True),
     "sd_measure_intersections": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, P_INT64], True),
     "sd_measure_cross_sections": (Status, [c_int32, F32, c_int32, I32, c_int32, F32, F32, ctypes.c_float, F64_OUT], True),
+    # anatomical effects (Sect. 4.3, 4.4)
+    "sd_anatomy_create": (Status, [RigP, BindingP, c_int32, I32, ctypes.POINTER(AnatomyP)], True),
+    "sd_anatomy_destroy": (None, [AnatomyP], True),
+    "sd_anatomy_add_joint": (Status, [AnatomyP, c_int32, c_int32, F32, P_INT32], True),
+    "sd_anatomy_joint_count": (c_int32, [AnatomyP], True),
+    "sd_anatomy_set_joint_effects": (Status, [AnatomyP, c_int32, c_int32], True),
+    "sd_anatomy_get_joint_effects": (Status, [AnatomyP, c_int32, P_INT32], True),
+    "sd_anatomy_set_joint_parameter": (Status, [AnatomyP, c_int32, c_int32, ctypes.c_float], True),
+    "sd_anatomy_get_joint_parameter": (Status, [AnatomyP, c_int32, c_int32, ctypes.POINTER(ctypes.c_float)], True),
+    "sd_anatomy_set_joint_proxy": (Status, [AnatomyP, c_int32, c_int32, F32, c_int32, I32, ctypes.c_float], True),
+    "sd_anatomy_set_volume_feedback": (Status, [AnatomyP, c_int32, c_int32], True),
+    "sd_anatomy_set_folding_iterations": (Status, [AnatomyP, c_int32], True),
+    "sd_anatomy_apply": (Status, [AnatomyP, DeformerP, c_int32, F32, c_int32, F32_OUT], True),
+    "sd_deform_with_anatomy": (Status, [DeformerP, AnatomyP, c_int32, F32, c_int32, F32_OUT], True),
+    "sd_anatomy_get_stats": (Status, [AnatomyP, c_int32, F64_OUT], True),
+    "sd_anatomy_get_volume_offsets": (Status, [AnatomyP, c_int32, F64_OUT], True),
+    "sd_anatomy_count_intersections": (Status, [AnatomyP, c_int32, F32, P_INT32], True),
     # automatic fitting
     "sd_fit_rig": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, F32, F32, F32,
                             ctypes.POINTER(c_char_p), c_int32, I32, F32, c_int32, c_int32, I32, I32,

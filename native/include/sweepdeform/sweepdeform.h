@@ -337,6 +337,145 @@ SD_API sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_coun
 SD_API const uint8_t* sd_dmap_blob_data(const sd_dmap_blob* blob, int64_t* out_size);
 SD_API void sd_dmap_blob_destroy(sd_dmap_blob* blob);
 
+/* ---- anatomical effects (Sect. 4.3, 4.4) ---- */
+
+/*
+ * On top of a deformer: skin folding where the skin intersects itself near joints (collision
+ * detection with a BVH and exact triangle tests, bisecting planes, relaxing), bone
+ * protrusion (olecranon, patella, or a mesh of the caller's), muscle bulge (biceps, calf),
+ * and I_C, the volume they add, fed back to the deformer's volume control as its target
+ * V0 - I_C; plus a volume restoration that holds each bent limb's skin at its rest volume.
+ * One sd_anatomy per bound mesh; it keeps copies of what it needs. Like the other handles it
+ * is used from one thread at a time; its results do not depend on the number of threads.
+ * It carries state from frame to frame (I_C, the restoration's push): a pose reached after
+ * others can differ slightly from the same pose as the first frame (mode 2 below, or mode 0
+ * with restore 0, make every frame depend on its pose only).
+ */
+typedef struct sd_anatomy sd_anatomy;
+
+typedef enum sd_joint_kind {
+    SD_JOINT_GENERIC = 0, /* folding only: shoulder (armpit), hip (groin), neck */
+    SD_JOINT_ELBOW = 1,   /* also an olecranon proxy on the forearm and a biceps */
+    SD_JOINT_KNEE = 2     /* also a patella proxy and a calf muscle on the shin */
+} sd_joint_kind;
+
+/* Per-joint effect switches, a bit mask (all on when a joint is added). */
+#define SD_EFFECT_FOLDING 1
+#define SD_EFFECT_PROTRUSION 2
+#define SD_EFFECT_BULGE 4
+
+typedef enum sd_joint_parameter {
+    SD_JOINT_PROTRUSION_STRENGTH = 0, /* 0..2 (1): scales the push out of a bone proxy */
+    SD_JOINT_PROTRUSION_FALLOFF = 1,  /* >= 0 (0 = automatic): radius of its smooth falloff, units */
+    SD_JOINT_BULGE_STRENGTH = 2,      /* 0..1 (0.15): outward push at full flexion, share of the local radius */
+    SD_JOINT_BULGE_FALLOFF = 3,       /* 0.05..0.5 (0.35): width of the muscle's smooth edge, share of its extent */
+    SD_JOINT_FOLDING_FALLOFF = 4,     /* >= 0 (0 = automatic): radius of the folding falloff, units */
+    SD_JOINT_FOLDING_MARGIN = 5,      /* >= 0 (0 = automatic): gap kept between folded skin, units */
+    SD_JOINT_REGION_RADIUS = 6        /* >= 0 (0 = automatic): collision region around the joint at rest */
+} sd_joint_parameter;
+
+/*
+ * Creates the anatomy layer for the mesh bound by `binding` (to `rig`: the pair a deformer
+ * is created from). triangles #T*3 vertex indices in [0, V), T >= 1.
+ */
+SD_API sd_status sd_anatomy_create(const sd_rig* rig, const sd_binding* binding,
+                                   int32_t triangle_count, const int32_t* triangles,
+                                   sd_anatomy** out_anatomy);
+SD_API void sd_anatomy_destroy(sd_anatomy* anatomy);
+/*
+ * Adds the joint whose lower link is `lower_bone` (the rig must have a joint key ellipse
+ * with that bone and a joint parent; the parent is the upper link). flexion_direction #3
+ * (armature space, rest): where the lower link moves when the joint flexes — the front for
+ * an elbow, the back for a knee; required for elbows and knees, may be NULL for generic
+ * joints. out_joint (may be NULL) receives the joint's index.
+ */
+SD_API sd_status sd_anatomy_add_joint(sd_anatomy* anatomy, int32_t lower_bone, int32_t kind,
+                                      const float* flexion_direction, int32_t* out_joint);
+/* Number of joints, or -1 (and an error) for NULL. */
+SD_API int32_t sd_anatomy_joint_count(const sd_anatomy* anatomy);
+SD_API sd_status sd_anatomy_set_joint_effects(sd_anatomy* anatomy, int32_t joint, int32_t effects);
+SD_API sd_status sd_anatomy_get_joint_effects(const sd_anatomy* anatomy, int32_t joint,
+                                              int32_t* effects);
+SD_API sd_status sd_anatomy_set_joint_parameter(sd_anatomy* anatomy, int32_t joint,
+                                                int32_t parameter, float value);
+SD_API sd_status sd_anatomy_get_joint_parameter(const sd_anatomy* anatomy, int32_t joint,
+                                                int32_t parameter, float* value);
+/*
+ * Replaces the joint's bone proxies by a mesh of the caller's: positions #N*3 (armature
+ * space, rest pose), triangles #F*3, closed and consistently oriented, star-shaped about its
+ * volume centroid; it follows `fraction` in [0, 1] of the joint's rotation (1: rigidly with
+ * the lower link, 0.5: with the joint's bisector).
+ */
+SD_API sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint,
+                                            int32_t vertex_count, const float* positions,
+                                            int32_t triangle_count, const int32_t* triangles,
+                                            float fraction);
+/*
+ * How I_C (the volume bulge, protrusion and folding added, per sweep) reaches the volume
+ * control. mode 0: not at all; 1 (default): I_C of a frame sets the next frame's target (one
+ * pass, as in the paper; approached with gain 0.6 and bounded to 15 % of the sweep's volume);
+ * 2: two passes per frame, the second with the first's I_C and restoration (results depend
+ * on the pose only). restore != 0 (default): the skin of each sweep that owns an elbow or a
+ * knee is held at its rest mesh volume by a smooth outward push around the joint on its
+ * extensor half, its height following the measured deficit from frame to frame (what the
+ * sweep integral cannot see: the displacement map's own volume change at deep bends, volume
+ * the controller puts elsewhere); folding's loss then stays out of I_C.
+ */
+SD_API sd_status sd_anatomy_set_volume_feedback(sd_anatomy* anatomy, int32_t mode, int32_t restore);
+/* Folding passes per frame (detection after each), 1..64 (default 10). */
+SD_API sd_status sd_anatomy_set_folding_iterations(sd_anatomy* anatomy, int32_t iterations);
+/*
+ * Applies the effects to `positions` (#V*3, in place): what sd_deform wrote for `pose`
+ * (#B*16). With a deformer (may be NULL) I_C is measured and handed to it as its volume
+ * offsets as the feedback mode says.
+ */
+SD_API sd_status sd_anatomy_apply(sd_anatomy* anatomy, sd_deformer* deformer, int32_t bone_count,
+                                  const float* pose, int32_t vertex_count, float* positions);
+/* sd_deform followed by the effects and the volume feedback, in one call. */
+SD_API sd_status sd_deform_with_anatomy(sd_deformer* deformer, sd_anatomy* anatomy,
+                                        int32_t bone_count, const float* pose,
+                                        int32_t vertex_count, float* out_positions);
+
+/* Figures of the last frame, by index (times in milliseconds, volumes in units^3). */
+typedef enum sd_anatomy_stat {
+    SD_STAT_MS_SWEEPS = 0,
+    SD_STAT_MS_BULGE = 1,
+    SD_STAT_MS_PROTRUSION = 2,
+    SD_STAT_MS_COLLISION = 3,
+    SD_STAT_MS_FOLDING = 4,
+    SD_STAT_MS_VOLUME = 5,
+    SD_STAT_MS_TOTAL = 6,
+    SD_STAT_COLLISION_TRIANGLES = 7, /* triangles in the enabled joints' regions */
+    SD_STAT_PAIRS_BEFORE = 8,        /* intersecting pairs before folding */
+    SD_STAT_PAIRS_AFTER = 9,         /* left after folding (0 unless the passes ran out) */
+    SD_STAT_FOLDING_ITERATIONS = 10,
+    SD_STAT_FOLDING_REGIONS = 11,
+    SD_STAT_BULGE_VERTICES = 12,
+    SD_STAT_PROTRUSION_VERTICES = 13,
+    SD_STAT_FOLDED_VERTICES = 14,
+    SD_STAT_FALLOFF_VERTICES = 15,
+    SD_STAT_RELAXED_VERTICES = 16,
+    SD_STAT_MAX_BULGE = 17,           /* largest displacement, units */
+    SD_STAT_MAX_PROTRUSION = 18,
+    SD_STAT_MAX_FOLD_DEPTH = 19,
+    SD_STAT_VOLUME_CHANGE = 20,       /* sum of I_C handed to the deformer */
+    SD_STAT_EFFECTS_VOLUME = 21,      /* volume bulge, protrusion and folding added */
+    SD_STAT_PASSES = 22,
+    SD_STAT_RESTORED_VOLUME = 23,     /* volume the restoration added */
+    SD_STAT_COUNT = 24
+} sd_anatomy_stat;
+/* Writes the first `count` (0..SD_STAT_COUNT) figures into values. */
+SD_API sd_status sd_anatomy_get_stats(const sd_anatomy* anatomy, int32_t count, double* values);
+/* I_C per sweep of the last frame (#S, units^3). */
+SD_API sd_status sd_anatomy_get_volume_offsets(const sd_anatomy* anatomy, int32_t sweep_count,
+                                               double* offsets);
+/*
+ * Exact count of intersecting triangle pairs (sharing no vertex) among the triangles of the
+ * joints whose folding is on, for `positions` (#V*3): a check, independent of the folding.
+ */
+SD_API sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t vertex_count,
+                                                const float* positions, int32_t* out_pairs);
+
 /* ---- key-ellipse editing (Sect. 4.2) ---- */
 
 /*
