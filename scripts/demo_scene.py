@@ -5,17 +5,18 @@
             [--character FILE.blend|.glb|.gltf|.fbx] [--action NAME] [--zip ADDON.zip]
 
 It installs the extension, loads the character (default: the built-in one in blend_fixtures/),
-puts three copies side by side — Blender's Armature modifier (plain), the Armature modifier with
-"Preserve Volume", and Sweep Deform — plays the action, and writes to DIR:
+puts four copies side by side — Blender's Armature modifier (plain), the Armature modifier with
+"Preserve Volume", Sweep Deform, and Sweep Deform with its anatomical effects (skin folding,
+bone protrusion, muscle bulge at the elbows and knees) — plays the action, and writes to DIR:
 
-  poses/<pose>.png        one picture per key pose, the three methods left to right
+  poses/<pose>.png        one picture per key pose, the methods left to right
   poses/<pose>_<joint>.png close-ups of the elbow, knee and wrist where the pose bends them
   motion/frame_NNNN.png   the motion as a short clip of frames
   report.json, report.md  per pose and method: volume change of each limb and of the body,
                           intersecting skin triangle pairs at each joint, the smallest forearm
                           cross-section relative to rest, and ms per frame
 
-The figures come from the core's measurement functions (sd_measure_*), the same for all three
+The figures come from the core's measurement functions (sd_measure_*), the same for all
 methods, on the evaluated meshes Blender produces.
 """
 
@@ -37,7 +38,10 @@ METHODS = [
     ("armature", "Armature modifier"),
     ("preserve_volume", "Armature, Preserve Volume"),
     ("sweep_deform", "Sweep Deform"),
+    ("sweep_deform_fx", "Sweep Deform + effects"),
 ]
+#: Methods that bind Sweep Deform, and whether with the anatomical effects.
+SWEEP_METHODS = {"sweep_deform": False, "sweep_deform_fx": True}
 DEFAULT_POSES = ["rest", "walk", "arms_up", "knee_bend", "elbow_bend", "forearm_twist", "spine_bend"]
 
 
@@ -102,7 +106,9 @@ def key_poses(scene, action):
 
 
 def make_columns(arm, body, spacing):
-    """Three (armature, body) pairs side by side, one per method; the original is the first."""
+    """One (armature, body) pair per method, side by side; the original is the first. The
+    Sweep Deform columns are each bound (the same automatic fitting), the last with the
+    anatomical effects on."""
     columns = []
     for i, (key, label) in enumerate(METHODS):
         if i == 0:
@@ -123,12 +129,21 @@ def make_columns(arm, body, spacing):
         mod.use_deform_preserve_volume = key == "preserve_volume"
         columns.append({"key": key, "label": label, "arm": a, "body": b})
     bpy.context.view_layer.update()
-    sweep = columns[2]
-    with bpy.context.temp_override(object=sweep["body"], active_object=sweep["body"],
-                                   selected_objects=[sweep["body"]]):
-        result = bpy.ops.object.sweep_deform_add(armature=sweep["arm"].name)
-    if result != {'FINISHED'}:
-        sys.exit(f"demo: binding Sweep Deform failed: {sweep['body'].sweep_deform.message}")
+    for sweep in columns:
+        if sweep["key"] not in SWEEP_METHODS:
+            continue
+        with bpy.context.temp_override(object=sweep["body"], active_object=sweep["body"],
+                                       selected_objects=[sweep["body"]]):
+            result = bpy.ops.object.sweep_deform_add(armature=sweep["arm"].name)
+        if result != {'FINISHED'}:
+            sys.exit(f"demo: binding Sweep Deform failed: {sweep['body'].sweep_deform.message}")
+        if SWEEP_METHODS[sweep["key"]]:
+            s = sweep["body"].sweep_deform
+            s.use_anatomy = True
+            if not len(s.joints):
+                sys.exit("demo: no elbows or knees for the anatomical effects in the fitting report")
+            print(f"demo: anatomical effects on at {', '.join(j.name for j in s.joints)}", flush=True)
+    bpy.context.view_layer.update()
     return columns
 
 
@@ -384,9 +399,16 @@ def measure(columns, chains, tris, native, regions, height):
 def time_methods(scene, columns, frames):
     """ms per frame of each method alone: frame changes with only that method's body
     evaluated, minus the same with no body (armature evaluation and scene overhead)."""
+    from bl_ext.user_default.sweep_deform import modifier  # noqa: E402 (installed by now)
+    sweep_mods = {col["key"]: modifier.find(col["body"]) for col in columns}
+
     def run(active):
         for col in columns:
             col["body"].hide_viewport = col is not active
+            # The add-on's frame handler evaluates hidden bodies too: only the active column's
+            # Sweep Deform may run, or its cost lands in the baseline.
+            if sweep_mods[col["key"]] is not None:
+                sweep_mods[col["key"]].show_viewport = col is active
         bpy.context.view_layer.update()
         dg = bpy.context.evaluated_depsgraph_get()
         scene.frame_set(frames[0])
@@ -400,6 +422,8 @@ def time_methods(scene, columns, frames):
     result = {col["key"]: max(0.0, min(run(col) for _ in range(2)) - base) for col in columns}
     for col in columns:
         col["body"].hide_viewport = False
+        if sweep_mods[col["key"]] is not None:
+            sweep_mods[col["key"]].show_viewport = True
     return result
 
 
@@ -470,14 +494,14 @@ def main():
     lo, hi = world_bbox([body])
     height = float(hi[2] - lo[2])
     columns = make_columns(arm, body, spacing=1.25 * max(hi[0] - lo[0], 0.6 * height))
-    chains = chains_from_report(columns[2]["body"])
+    chains = chains_from_report(next(c for c in columns if c["key"] in SWEEP_METHODS)["body"])
     if not chains:
         sys.exit("demo: the fitting found no chains; see the Sweep Deform panel's message")
     tris = rest_triangles(body.data)
     regions = limb_regions(body, chains)
     print(f"demo: {len(body.data.vertices)} vertices, chains {[c['name'] for c in chains]}", flush=True)
 
-    setup_render(scene, 1500, 720)
+    setup_render(scene, 500 * len(columns), 720)
     blo, bhi = world_bbox([c["body"] for c in columns])
     for col in columns:
         clo, chi = world_bbox([col["body"]])
@@ -504,7 +528,7 @@ def main():
         print(f"demo: pose {name} (frame {frame}) rendered and measured", flush=True)
 
     # The motion as a clip of frames.
-    scene.render.resolution_x, scene.render.resolution_y = 750, 360
+    scene.render.resolution_x, scene.render.resolution_y = 250 * len(columns), 360
     start, end = (int(x) for x in action.frame_range)
     for i, f in enumerate(range(start, end + 1, max(1, args.motion_step))):
         scene.frame_set(f)

@@ -190,6 +190,7 @@ def store(obj, arm, inp, out):
     s = obj.sweep_deform
     persistence.store(obj, out.rig_blob, out.binding.serialize(), inp.bone_names, inp.rest,
                       out.rig.sweep_count, out.report)
+    runtime.fill_joints(obj)  # the elbows and knees of the anatomical effects, from the report
     s.armature = arm
     s.bind_id = uuid.uuid4().hex
     s.state = 'BOUND'

@@ -648,6 +648,95 @@ class Deformer(_Handle):
         _call("sd_deformer_set_rig_corrections", self.ptr, *args)
 
 
+# ---- anatomical effects (Sect. 4.3, 4.4) ---------------------------------------------
+
+JOINT_GENERIC, JOINT_ELBOW, JOINT_KNEE = 0, 1, 2
+EFFECT_FOLDING, EFFECT_PROTRUSION, EFFECT_BULGE = 1, 2, 4
+EFFECT_ALL = EFFECT_FOLDING | EFFECT_PROTRUSION | EFFECT_BULGE
+#: sd_joint_parameter
+PARAM_PROTRUSION_STRENGTH, PARAM_PROTRUSION_FALLOFF, PARAM_BULGE_STRENGTH, PARAM_BULGE_FALLOFF = 0, 1, 2, 3
+PARAM_FOLDING_FALLOFF, PARAM_FOLDING_MARGIN, PARAM_REGION_RADIUS = 4, 5, 6
+#: sd_anatomy_stat names, in the ABI's order (SD_STAT_COUNT of them).
+ANATOMY_STATS = (
+    "ms_sweeps", "ms_bulge", "ms_protrusion", "ms_collision", "ms_folding", "ms_volume", "ms_total",
+    "collision_triangles", "pairs_before", "pairs_after", "folding_iterations", "folding_regions",
+    "bulge_vertices", "protrusion_vertices", "folded_vertices", "falloff_vertices", "relaxed_vertices",
+    "max_bulge", "max_protrusion", "max_fold_depth", "volume_change", "effects_volume", "passes",
+    "restored_volume")
+
+
+class Anatomy(_Handle):
+    """The anatomical effects of one bound mesh (skin folding, bone protrusion, muscle bulge,
+    their volume fed back to the deformer), on top of a :class:`Deformer` of the same rig and
+    binding."""
+
+    _destroy = "sd_anatomy_destroy"
+
+    def __init__(self, rig, binding, triangles):
+        tris = _i32(triangles).reshape(-1)
+        if tris.size == 0 or tris.size % 3:
+            raise ValueError("triangles must be a non-empty (T,3) array")
+        out = AnatomyP()
+        _call("sd_anatomy_create", rig.ptr, binding.ptr, tris.size // 3, tris, ctypes.byref(out))
+        super().__init__(out)
+        self.bone_count = rig.bone_count
+        self.vertex_count = binding.vertex_count
+        self._stats = np.zeros(len(ANATOMY_STATS), np.float64)
+
+    def add_joint(self, lower_bone, kind, flexion_direction=None):
+        """Adds the joint whose lower link is `lower_bone`; returns its index."""
+        direction = None if flexion_direction is None else _f32(flexion_direction).ravel()
+        if direction is not None:
+            _expect_size("flexion direction", direction, 3)
+        index = ctypes.c_int32(-1)
+        _call("sd_anatomy_add_joint", self.ptr, int(lower_bone), int(kind), direction, ctypes.byref(index))
+        return index.value
+
+    @property
+    def joint_count(self):
+        return int(library().sd_anatomy_joint_count(self.ptr))
+
+    def set_joint_effects(self, joint, effects):
+        _call("sd_anatomy_set_joint_effects", self.ptr, int(joint), int(effects))
+
+    def joint_effects(self, joint):
+        out = ctypes.c_int32()
+        _call("sd_anatomy_get_joint_effects", self.ptr, int(joint), ctypes.byref(out))
+        return out.value
+
+    def set_joint_parameter(self, joint, parameter, value):
+        _call("sd_anatomy_set_joint_parameter", self.ptr, int(joint), int(parameter), float(value))
+
+    def joint_parameter(self, joint, parameter):
+        out = ctypes.c_float()
+        _call("sd_anatomy_get_joint_parameter", self.ptr, int(joint), int(parameter), ctypes.byref(out))
+        return out.value
+
+    def set_volume_feedback(self, mode, restore=True):
+        _call("sd_anatomy_set_volume_feedback", self.ptr, int(mode), 1 if restore else 0)
+
+    def set_folding_iterations(self, iterations):
+        _call("sd_anatomy_set_folding_iterations", self.ptr, int(iterations))
+
+    def deform(self, deformer, pose, out=None):
+        """sd_deform_with_anatomy: the deformer's frame, then the effects and the volume
+        feedback. Returns (V,3) float32 (`out` if given, else the deformer's own buffer)."""
+        if pose.dtype != np.float32 or pose.size != 16 * self.bone_count:
+            raise ValueError(f"pose must be {16 * self.bone_count} float32 values")
+        if out is None:
+            out = deformer.positions
+        elif out.size != 3 * self.vertex_count:
+            raise ValueError(f"out must hold {3 * self.vertex_count} float32 values")
+        _call("sd_deform_with_anatomy", deformer.ptr, self.ptr, self.bone_count, np.ascontiguousarray(pose),
+              self.vertex_count, out)
+        return out
+
+    def stats(self):
+        """The last frame's figures, a dict by :data:`ANATOMY_STATS` name."""
+        _call("sd_anatomy_get_stats", self.ptr, self._stats.size, self._stats)
+        return {name: float(v) for name, v in zip(ANATOMY_STATS, self._stats)}
+
+
 # ---- automatic fitting ----------------------------------------------------------------
 
 

@@ -123,6 +123,67 @@ class OBJECT_PT_sweep_deform_volumes(bpy.types.Panel):
         layout.label(text="Change from the rest volume, before and after volume control", icon='INFO')
 
 
+class OBJECT_PT_sweep_deform_anatomy(bpy.types.Panel):
+    """Anatomical effects (Sect. 4.3, 4.4): on/off, per joint folding / protrusion / bulge
+    and their strengths, and the last frame's figures."""
+    bl_label = "Anatomical Effects"
+    bl_space_type = 'PROPERTIES'
+    bl_region_type = 'WINDOW'
+    bl_context = "modifier"
+    bl_parent_id = "OBJECT_PT_sweep_deform"
+    bl_options = {'DEFAULT_CLOSED'}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.sweep_deform, "use_anatomy", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.object
+        s = obj.sweep_deform
+        layout.active = s.use_anatomy
+        if not s.joints:
+            layout.label(text="No elbows or knees known yet" if not s.use_anatomy else
+                         "No elbows or knees in the fitting report", icon='INFO')
+        for j in s.joints:
+            box = layout.box()
+            row = box.row(align=True)
+            row.label(text=j.name or j.bone, icon='BONE_DATA')
+            row.prop(j, "use_folding", toggle=True)
+            row.prop(j, "use_protrusion", toggle=True)
+            row.prop(j, "use_bulge", toggle=True)
+            row = box.row(align=True)
+            sub = row.row(align=True)
+            sub.active = j.use_protrusion
+            sub.prop(j, "protrusion_strength", text="Protrusion")
+            sub = row.row(align=True)
+            sub.active = j.use_bulge
+            sub.prop(j, "bulge_strength", text="Bulge")
+        e = runtime.peek(obj)
+        if e is None or not s.use_anatomy:
+            return
+        if e.anatomy_error:
+            box = layout.box()
+            box.alert = True
+            for line in _wrap(e.anatomy_error):
+                box.label(text=line)
+        st = e.anatomy_stats
+        if st is None:
+            layout.label(text="Pose the armature to see the figures")
+            return
+        col = layout.column(align=True)
+        col.label(text=f"Intersecting pairs: {int(st['pairs_before'])} before folding, "
+                       f"{int(st['pairs_after'])} after")
+        col.label(text=f"Last frame: {st['ms_total']:.2f} ms (collision {st['ms_collision']:.2f}, "
+                       f"folding {st['ms_folding']:.2f})")
+        col.label(text=f"Vertices: {int(st['folded_vertices'])} folded, {int(st['protrusion_vertices'])} "
+                       f"protruded, {int(st['bulge_vertices'])} bulged")
+
+
 # ---- key-ellipse editing (Sect. 4.2) ---------------------------------------------------------
 
 
@@ -278,7 +339,8 @@ def _wrap(text, width=60):
     return lines
 
 
-classes = (OBJECT_PT_sweep_deform, OBJECT_PT_sweep_deform_volumes, SWEEPDEFORM_UL_corrections,
+classes = (OBJECT_PT_sweep_deform, OBJECT_PT_sweep_deform_volumes, OBJECT_PT_sweep_deform_anatomy,
+           SWEEPDEFORM_UL_corrections,
            OBJECT_PT_sweep_deform_keys, VIEW3D_PT_sweep_deform_keys)
 
 

@@ -67,6 +67,42 @@ class SweepDeformCorrection(bpy.types.PropertyGroup):
                        description="Keep the correction but do not use it")
 
 
+def _anatomy_toggled(self, context):
+    # A character bound before the anatomical effects existed gets its joints now.
+    from . import runtime
+    if self.use_anatomy and len(self.joints) == 0:
+        runtime.fill_joints(self.id_data)
+    runtime.settings_changed(self.id_data)
+
+
+JOINT_KINDS = [
+    ('ELBOW', "Elbow", "An elbow: olecranon proxy on the forearm, biceps bulge"),
+    ('KNEE', "Knee", "A knee: patella proxy on the shin, calf bulge"),
+]
+
+
+class SweepDeformJoint(bpy.types.PropertyGroup):
+    """The anatomical effects of one joint (Sect. 4.3, 4.4), found from the fitting report's
+    arm and leg chains at binding. `name` is what the panel shows ("Elbow L")."""
+    bone: StringProperty(name="Bone", description="The joint's lower bone (forearm, shin)")
+    kind: EnumProperty(name="Kind", items=JOINT_KINDS, default='ELBOW')
+    flexion_direction: FloatVectorProperty(
+        name="Flexion Direction", size=3, default=(0.0, -1.0, 0.0),
+        description="Where the lower bone moves when the joint flexes (armature space, rest)")
+    use_folding: BoolProperty(name="Folding", default=True, update=_settings_changed,
+                              description="Fold the skin where it would pass through itself at this joint")
+    use_protrusion: BoolProperty(name="Protrusion", default=True, update=_settings_changed,
+                                 description="Let the bone (olecranon, patella) show through the skin")
+    use_bulge: BoolProperty(name="Bulge", default=True, update=_settings_changed,
+                            description="Bulge the muscle (biceps, calf) as the joint flexes")
+    protrusion_strength: FloatProperty(
+        name="Protrusion Strength", default=1.0, min=0.0, max=2.0, update=_settings_changed,
+        description="Scales the push of the skin out of the bone proxy")
+    bulge_strength: FloatProperty(
+        name="Bulge Strength", default=0.15, min=0.0, max=1.0, subtype='FACTOR', update=_settings_changed,
+        description="Outward push of the muscle at full flexion, as a share of the limb's local radius")
+
+
 class SweepDeformSettings(bpy.types.PropertyGroup):
     armature: PointerProperty(
         name="Armature", type=bpy.types.Object, poll=_is_armature,
@@ -78,6 +114,13 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
         name="Strength", default=1.0, min=0.0, max=1.0, subtype='FACTOR', update=_settings_changed,
         description="How much of the volume change is corrected (0 = none, 1 = all)")
     show_volumes: BoolProperty(name="Volumes", default=True, description="Show the volume of each limb")
+
+    # Anatomical effects (Sect. 4.3, 4.4): off by default; per joint below.
+    use_anatomy: BoolProperty(
+        name="Anatomical Effects", default=False, update=_anatomy_toggled,
+        description="Skin folding, bone protrusion and muscle bulge at the elbows and knees, with the volume "
+                    "they add taken out of the volume control's target")
+    joints: CollectionProperty(type=SweepDeformJoint, name="Joints")
 
     # Key-ellipse editing (Sect. 4.2): the corrections, and the editing state.
     corrections: CollectionProperty(type=SweepDeformCorrection, name="Corrections")
@@ -118,7 +161,7 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
     armature_modifier_object: PointerProperty(type=bpy.types.Object)
 
 
-classes = (SweepDeformCorrection, SweepDeformSettings)
+classes = (SweepDeformCorrection, SweepDeformJoint, SweepDeformSettings)
 
 
 def register():

@@ -17,6 +17,8 @@ the deformer again costs milliseconds). The rig blob's own copy of the correctio
 written when the file is saved (persistence.py) and ignored when it is read.
 """
 
+import json
+
 import numpy as np
 
 from . import modifier, native, persistence, rig_io
@@ -44,8 +46,15 @@ class Entry:
         self.correction_error = ""
         self.overlay = None
         self.overlay_key = None
+        self.binding = None
+        self.anatomy = None
+        self.anatomy_key = None
+        self.anatomy_error = ""
+        self.anatomy_stats = None
+        self.triangles = None
         try:
             rig, binding, names, rest_pose = persistence.load(obj)
+            self.binding = binding  # kept for the anatomical effects (sd_anatomy_create)
             self.bone_names = names
             # The properties rule: the blob's corrections (written at save) are dropped, so the
             # rest shape below is the uncorrected one the binding was made against.
@@ -88,6 +97,13 @@ class Entry:
             self._inverse = None if np.array_equal(m, np.eye(3)) else np.linalg.inv(m).T.astype(np.float32)
         return self._inverse
 
+    def close(self):
+        """Frees the anatomy now (the deformer goes with the entry's last reference)."""
+        if self.anatomy is not None:
+            self.anatomy.close()
+        self.anatomy = None
+        self.anatomy_key = None
+
     def volumes(self):
         """(rest, before, after) per sweep of the last frame, or None before the first."""
         if self.deformer is None or self.frames == 0:
@@ -97,6 +113,134 @@ class Entry:
 
 def _key(obj):
     return (obj.name, obj.sweep_deform.bind_id)
+
+
+# ---- anatomical effects (Sect. 4.3, 4.4) ----------------------------------------------------
+
+#: Joint kinds of the properties → sd_joint_kind.
+_JOINT_KINDS = {'ELBOW': native.JOINT_ELBOW, 'KNEE': native.JOINT_KNEE}
+
+
+def report_joints(report):
+    """The elbows and knees of a fitting report: [(label, lower bone name, kind, flexion
+    direction)] from its arm and leg chains that got a sweep (their last bone is the joint's
+    lower link); the flexion direction is the body's forward for an elbow, its back for a
+    knee (armature space, as the report's body axes)."""
+    try:
+        r = json.loads(report) if report else {}
+        forward = [float(x) for x in r.get("body", {}).get("forward", (0.0, -1.0, 0.0))]
+        chains = r.get("chains", [])
+    except (ValueError, AttributeError, TypeError):
+        return []
+    joints = []
+    for ch in chains:
+        try:
+            kind = {"arm": 'ELBOW', "leg": 'KNEE'}.get(ch.get("kind"))
+            names = ch.get("bone_names", [])
+            if kind is None or ch.get("sweep", -1) < 0 or len(names) < 2:
+                continue
+            side = ch.get("side", 0)
+            suffix = {1: " L", -1: " R"}.get(side, "") if isinstance(side, int) else ""
+            label = ("Elbow" if kind == 'ELBOW' else "Knee") + (suffix or f" ({ch.get('name', names[-1])})")
+            direction = forward if kind == 'ELBOW' else [-x for x in forward]
+            joints.append((label, names[-1], kind, direction))
+        except (AttributeError, TypeError):
+            continue
+    return joints
+
+
+def fill_joints(obj):
+    """(Re)fills ``sweep_deform.joints`` from the object's fitting report, keeping the
+    switches of joints already there (by bone)."""
+    s = obj.sweep_deform
+    keep = {}
+    for j in s.joints:
+        keep[j.bone] = (j.use_folding, j.use_protrusion, j.use_bulge, j.protrusion_strength, j.bulge_strength)
+    found = report_joints(obj.get(persistence.REPORT_KEY, ""))
+    s.joints.clear()
+    for label, bone, kind, direction in found:
+        j = s.joints.add()
+        j.name, j.bone, j.kind, j.flexion_direction = label, bone, kind, direction
+        if bone in keep:
+            (j.use_folding, j.use_protrusion, j.use_bulge, j.protrusion_strength,
+             j.bulge_strength) = keep[bone]
+
+
+def joint_effects(j):
+    return ((native.EFFECT_FOLDING if j.use_folding else 0) | (native.EFFECT_PROTRUSION if j.use_protrusion else 0)
+            | (native.EFFECT_BULGE if j.use_bulge else 0))
+
+
+def anatomy_settings(settings):
+    """The anatomical effects a SweepDeformSettings asks for: None when off, else per joint
+    (bone, kind, flexion direction, effect mask, protrusion strength, bulge strength)."""
+    if not settings.use_anatomy:
+        return None
+    return tuple((j.bone, j.kind, tuple(round(float(x), 7) for x in j.flexion_direction), joint_effects(j),
+                  float(j.protrusion_strength), float(j.bulge_strength)) for j in settings.joints)
+
+
+def mesh_triangles(mesh):
+    """The mesh's loop triangles (T,3) int32, vertex indices in the mesh's (= the binding's) order."""
+    mesh.calc_loop_triangles()
+    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get('vertices', tris)
+    return tris.reshape(-1, 3)
+
+
+#: sd_anatomy_set_volume_feedback mode the add-on uses: two passes per frame, so a frame
+#: depends on its pose only (a render, a scrub and playback give the same mesh).
+VOLUME_FEEDBACK_MODE = 2
+
+
+def make_anatomy(rig, binding, bone_names, triangles, joints):
+    """A native Anatomy with the joints of `joints` (as :func:`anatomy_settings` gives them)
+    switched as they say. Returns (anatomy, [error per joint that could not be added])."""
+    anatomy = native.Anatomy(rig, binding, triangles)
+    anatomy.set_volume_feedback(VOLUME_FEEDBACK_MODE, True)
+    problems = []
+    index = {n: i for i, n in enumerate(bone_names)}
+    for bone, kind, direction, effects, protrusion, bulge in joints:
+        if bone not in index:
+            problems.append(f"{bone}: not in the rig")
+            continue
+        try:
+            j = anatomy.add_joint(index[bone], _JOINT_KINDS[kind], direction)
+            anatomy.set_joint_effects(j, effects)
+            anatomy.set_joint_parameter(j, native.PARAM_PROTRUSION_STRENGTH, protrusion)
+            anatomy.set_joint_parameter(j, native.PARAM_BULGE_STRENGTH, bulge)
+        except native.NativeError as err:
+            problems.append(f"{bone}: {str(err).split(': ', 2)[-1]}")
+    return anatomy, problems
+
+
+def sync_anatomy(e, obj, settings):
+    """Creates, re-creates or drops the entry's Anatomy to match `settings`. Returns its key."""
+    key = anatomy_settings(settings)
+    if key == e.anatomy_key:
+        return key
+    if e.anatomy is not None:
+        e.anatomy.close()
+        e.anatomy = None
+    e.anatomy_stats = None
+    e.anatomy_error = ""
+    # The effects hand their volume (I_C) to the deformer as offsets: without them the target
+    # is V0 again, exactly as a deformer that never had them.
+    e.deformer.set_volume_offsets(np.zeros(e.deformer.sweep_count, np.float32))
+    e.anatomy_key = key
+    if key is None:
+        return key
+    try:
+        if e.triangles is None:
+            e.triangles = mesh_triangles(obj.data)
+        e.anatomy, problems = make_anatomy(e.rig, e.binding, e.bone_names, e.triangles, key)
+        e.anatomy_error = "; ".join(problems)
+        if not key:
+            e.anatomy_error = "No elbows or knees in the fitting report: bind again with the automatic fitting"
+    except (native.NativeError, ValueError) as err:
+        e.anatomy = None
+        e.anatomy_error = str(err)
+    return key
 
 
 # ---- key-ellipse corrections (Sect. 4.2) ---------------------------------------------------
@@ -260,7 +404,7 @@ def peek(obj):
 
 def forget(obj):
     for k in [k for k in _cache if k[0] == obj.name]:
-        del _cache[k]
+        _cache.pop(k).close()
     bound_changed()
 
 
@@ -272,6 +416,8 @@ def forget_armature(arm):
 
 
 def clear():
+    for e in _cache.values():
+        e.close()
     _cache.clear()
     _bound.clear()
     bound_changed()
@@ -395,15 +541,20 @@ def evaluate(obj, depsgraph, render=False):
     # values back to it for the active depsgraph, and a removed item is seen at once); in a
     # render from the render depsgraph's copy, which holds that frame's animated values.
     corrections = sync_corrections(e, obj_eval.sweep_deform if render else s)
+    anatomy = sync_anatomy(e, obj, obj_eval.sweep_deform if render else s)
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
-           corrections)
+           corrections, anatomy)
     if key == e.key and rig_io.OFFSET_ATTRIBUTE in obj.data.attributes:
         return False  # already written (an attribute removed by someone else is written again)
     if settings != e.settings:
         e.deformer.set_volume_preservation(*settings)
         e.settings = settings
     try:
-        deformed = e.deformer.deform(pose)
+        if e.anatomy is not None:
+            deformed = e.anatomy.deform(e.deformer, pose)
+            e.anatomy_stats = e.anatomy.stats()
+        else:
+            deformed = e.deformer.deform(pose)
     except native.NativeError as err:
         e.error = str(err)
         e.key = key

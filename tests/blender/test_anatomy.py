@@ -1,0 +1,132 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Anatomical effects (Sect. 4.3, 4.4) through the modifier: on the built-in light character
+bound with the automatic fitting, the joints come from the fitting report (two elbows, two
+knees); with the effects on, the bent elbow has fewer intersecting skin triangle pairs than
+without, and the evaluated mesh is exactly what sd_deform_with_anatomy computes; per-joint
+switches change the result; with the effects off the mesh is exactly sd_deform's again."""
+
+import bpy
+import numpy as np
+
+import helpers
+
+ELBOW_REGION = 0.12  # m around the posed elbow
+
+
+def frame(name):
+    scene = bpy.context.scene
+    scene.frame_set({m.name: m.frame for m in scene.timeline_markers}[name])
+    bpy.context.view_layer.update()
+
+
+def expectation(obj, anatomy_on):
+    """The add-on's mesh for the evaluated pose, computed here from the stored blobs with the
+    native module directly (a fresh deformer, and sd_deform_with_anatomy when `anatomy_on`)."""
+    native, persistence, runtime = helpers.sub("native"), helpers.sub("persistence"), helpers.sub("runtime")
+    s = obj.sweep_deform
+    dg = bpy.context.evaluated_depsgraph_get()
+    rig, binding, names, rest = persistence.load(obj)
+    arm_eval = s.armature.evaluated_get(dg)
+    obj_eval = obj.evaluated_get(dg)
+    pose = np.concatenate([np.array(arm_eval.pose.bones[n].matrix, np.float32).T.ravel() for n in names])
+    d = native.Deformer(rig, binding)
+    d.set_volume_preservation(False, 0.0)
+    rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
+    d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)
+    out = np.empty((d.vertex_count, 3), np.float32)
+    stats = None
+    if anatomy_on:
+        tris = runtime.mesh_triangles(obj.data)
+        anatomy, problems = runtime.make_anatomy(rig, binding, names, tris, runtime.anatomy_settings(s))
+        assert not problems, problems
+        anatomy.deform(d, pose, out)
+        stats = anatomy.stats()
+    else:
+        d.deform(pose, out)
+    m = np.array(arm_eval.matrix_world.inverted() @ obj_eval.matrix_world, np.float64)
+    offsets = out - rest_shape
+    if not np.array_equal(m[:3, :3], np.eye(3)):
+        offsets = offsets @ np.linalg.inv(m[:3, :3]).T.astype(np.float32)
+    return helpers.base_positions(obj) + offsets.astype(np.float32), stats
+
+
+def evaluated(obj):
+    co, attrs = helpers.evaluated_positions(obj)
+    assert "sweep_deform_offset" not in attrs
+    return co
+
+
+def joint_region(obj, char, bone, positions, triangles, radius=ELBOW_REGION):
+    """Triangles with a vertex within `radius` of the posed head of `bone` (mesh space)."""
+    dg = bpy.context.evaluated_depsgraph_get()
+    arm_eval = char.armature.evaluated_get(dg)
+    world = arm_eval.matrix_world @ arm_eval.pose.bones[bone].head
+    local = np.array(obj.evaluated_get(dg).matrix_world.inverted() @ world, np.float32)
+    near = np.linalg.norm(positions - local, axis=1) < radius
+    return np.flatnonzero(near[triangles].any(axis=1)).astype(np.int32)
+
+
+def test_anatomical_effects_at_the_elbow_and_knee():
+    char = helpers.load("fixture")
+    obj = helpers.bind(char)  # the product's automatic fitting: a report with the chains
+    native, runtime = helpers.sub("native"), helpers.sub("runtime")
+    s = obj.sweep_deform
+    assert not s.use_anatomy  # off by default
+    joints = {j.bone: j.kind for j in s.joints}
+    assert joints == {"forearm.L": 'ELBOW', "forearm.R": 'ELBOW', "shin.L": 'KNEE', "shin.R": 'KNEE'}, joints
+    tris = runtime.mesh_triangles(obj.data)
+
+    frame("elbow_bend")
+    off = evaluated(obj)
+    expected, _ = expectation(obj, False)
+    np.testing.assert_array_equal(off, expected)  # effects off: plain sd_deform, exactly
+
+    s.use_anatomy = True
+    bpy.context.view_layer.update()
+    on = evaluated(obj)
+    expected, stats = expectation(obj, True)
+    np.testing.assert_array_equal(on, expected)  # exactly sd_deform_with_anatomy
+    e = runtime.peek(obj)
+    assert e.anatomy is not None and e.anatomy.joint_count == 4 and not e.anatomy_error
+    assert e.anatomy_stats["pairs_before"] == stats["pairs_before"]
+    assert not np.array_equal(on, off)
+
+    region = joint_region(obj, char, "forearm.L", off, tris)
+    pairs_off = native.measure_intersections(off, tris, region)
+    pairs_on = native.measure_intersections(on, tris, region)
+    print(f"elbow_bend: {region.size} triangles within {ELBOW_REGION} m of the left elbow: "
+          f"{pairs_off} intersecting pairs without the effects, {pairs_on} with; "
+          f"core stats {int(stats['pairs_before'])} -> {int(stats['pairs_after'])}, {stats['ms_total']:.2f} ms")
+    assert pairs_off > 0
+    assert pairs_on < pairs_off
+
+    # Per-joint switches: no folding at the left elbow changes the mesh, still exactly the core's.
+    j = next(j for j in s.joints if j.bone == "forearm.L")
+    j.use_folding = False
+    bpy.context.view_layer.update()
+    no_fold = evaluated(obj)
+    expected, _ = expectation(obj, True)
+    np.testing.assert_array_equal(no_fold, expected)
+    assert not np.array_equal(no_fold, on)
+    assert native.measure_intersections(no_fold, tris, region) > pairs_on
+    j.use_folding = True
+    j.bulge_strength = 0.3
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(evaluated(obj), expectation(obj, True)[0])
+
+    # Knees at 135°.
+    frame("knee_bend")
+    knee_on = evaluated(obj)
+    np.testing.assert_array_equal(knee_on, expectation(obj, True)[0])
+    knee_region = joint_region(obj, char, "shin.L", knee_on, tris)
+
+    # Off again: bit-identical to sd_deform (the deformer's volume offsets are back to zero).
+    s.use_anatomy = False
+    bpy.context.view_layer.update()
+    knee_off = evaluated(obj)
+    np.testing.assert_array_equal(knee_off, expectation(obj, False)[0])
+    print(f"knee_bend: {native.measure_intersections(knee_off, tris, knee_region)} pairs without the effects, "
+          f"{native.measure_intersections(knee_on, tris, knee_region)} with")
+    frame("elbow_bend")
+    np.testing.assert_array_equal(evaluated(obj), off)
+    assert runtime.peek(obj).anatomy is None
