@@ -505,8 +505,8 @@ def main():
     blo, bhi = world_bbox([c["body"] for c in columns])
     for col in columns:
         clo, chi = world_bbox([col["body"]])
-        add_label(col["label"], ((clo[0] + chi[0]) / 2, clo[1] - 0.3, chi[2] + 0.05 * height), 0.045 * height)
-    full_lo, full_hi = blo - np.array([0, 0, 0.02 * height]), bhi + np.array([0, 0, 0.12 * height])
+        add_label(col["label"], ((clo[0] + chi[0]) / 2, clo[1] - 0.3, clo[2] - 0.07 * height), 0.045 * height)
+    full_lo, full_hi = blo - np.array([0, 0, 0.1 * height]), bhi + np.array([0, 0, 0.02 * height])
 
     rest_figs = None
     report_poses = []
