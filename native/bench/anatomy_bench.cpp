@@ -8,8 +8,8 @@
 // (folding, protrusion, bulge) and both shoulders, both hips and the neck (folding). Poses:
 // the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
 #include "anatomy/anatomy.h"
+#include "bench_case.h"
 #include "deform.h"
-#include "fit/fit_rig.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -101,17 +101,6 @@ void BM_SweepsWithAllEffects(benchmark::State& state) {
 BENCHMARK(BM_Sweeps)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(5)->ReportAggregatesOnly();
 BENCHMARK(BM_SweepsWithAllEffects)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(1.0)->Repetitions(5)->ReportAggregatesOnly();
 
-class RecordingReporter : public benchmark::ConsoleReporter {
-public:
-    std::map<std::string, double> ms;
-    void ReportRuns(const std::vector<Run>& runs) override {
-        ConsoleReporter::ReportRuns(runs);
-        for (const Run& r : runs)
-            if (r.aggregate_name == "median")
-                ms[r.run_name.function_name] = r.GetAdjustedRealTime() * (r.time_unit == benchmark::kMillisecond ? 1.0 : 1e-6);
-    }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -133,21 +122,8 @@ int main(int argc, char** argv) {
     const sd::io::Character& ch = c.character;
     const int V = static_cast<int>(ch.positions.size() / 3), T = static_cast<int>(ch.triangles.size() / 3);
     const int B = static_cast<int>(ch.bone_names.size());
-    sd::fit::FitInput in;
-    in.vertex_count = V;
-    in.positions = ch.positions.data();
-    in.triangle_count = T;
-    in.triangles = ch.triangles.data();
-    in.skeleton = sd::Skeleton::from_arrays(B, ch.bone_parents.data(), ch.bone_rest.data(), ch.bone_heads.data(),
-                                            ch.bone_tails.data());
-    in.bone_names = ch.bone_names;
-    in.skin_slots = 4;
-    in.skin_bones = ch.skin_joints.data();
-    in.skin_weights = ch.skin_weights.data();
-    c.fit = sd::fit::fit_rig(in);
-    const sd::fit::RegionWeights& w = c.fit.weights;
-    c.binding = sd::bind_vertices(c.fit.rig, V, ch.positions.data(), w.sweep_slots, w.sweep_ids.data(),
-                                  w.sweep_weights.data(), w.bone_slots, w.bone_ids.data(), w.bone_weights.data());
+    c.fit = sd::fit::fit_rig(sd::bench::fit_input(ch));
+    c.binding = sd::bench::bind_fitted(ch, c.fit);
     c.deformer = std::make_unique<sd::Deformer>(c.fit.rig, c.binding);
     c.plain = std::make_unique<sd::Deformer>(c.fit.rig, c.binding);
     const auto t1 = std::chrono::steady_clock::now();
@@ -179,7 +155,7 @@ int main(int argc, char** argv) {
                 V, T, c.fit.rig.sweeps.size(), c.anatomy->joint_count(), c.anatomy->stats().collision_triangles,
                 anims.animations[clip].name.c_str(), tbb::info::default_concurrency(),
                 std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
-    RecordingReporter reporter;
+    sd::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);
     benchmark::Shutdown();
 

@@ -3,8 +3,8 @@
 //
 // Case: MakeHuman male (../shared/data/humans/mh_male_game_engine.glb) refined three
 // Catmull–Clark levels with OpenSubdiv (13,380 -> 1,283,906 vertices), posed by the dance clip.
+#include "bench_case.h"
 #include "deform.h"
-#include "fit/fit_rig.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -46,24 +46,10 @@ int main(int argc, char** argv) {
                 levels, V, c.triangles.size() / 3, seconds_since(t0), peak_rss_mib());
 
     t0 = std::chrono::steady_clock::now();
-    sd::fit::FitInput in;
-    in.vertex_count = V;
-    in.positions = c.positions.data();
-    in.triangle_count = static_cast<int>(c.triangles.size() / 3);
-    in.triangles = c.triangles.data();
-    in.skeleton = sd::Skeleton::from_arrays(static_cast<int>(c.bone_names.size()), c.bone_parents.data(),
-                                            c.bone_rest.data(), c.bone_heads.data(), c.bone_tails.data());
-    in.bone_names = c.bone_names;
-    in.skin_slots = 4;
-    in.skin_bones = c.skin_joints.data();
-    in.skin_weights = c.skin_weights.data();
-    const sd::fit::FitResult fit = sd::fit::fit_rig(in);
+    const sd::fit::FitResult fit = sd::fit::fit_rig(sd::bench::fit_input(c));
     const double t_fit = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
-    const sd::fit::RegionWeights& w = fit.weights;
-    sd::Binding binding = sd::bind_vertices(fit.rig, V, c.positions.data(), w.sweep_slots, w.sweep_ids.data(),
-                                            w.sweep_weights.data(), w.bone_slots, w.bone_ids.data(),
-                                            w.bone_weights.data());
+    sd::Binding binding = sd::bench::bind_fitted(c, fit);
     const double t_bind = seconds_since(t0);
     sd::Deformer deformer(fit.rig, std::move(binding));
     std::vector<float> out(c.positions.size());

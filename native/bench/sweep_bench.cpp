@@ -7,8 +7,8 @@
 // level with OpenSubdiv over its triangles: 80,270 vertices (the paper's models have 72,712).
 // Poses: the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
 // Rig: the automatic fitting (native/src/fit), as the add-on does it.
+#include "bench_case.h"
 #include "deform.h"
-#include "fit/fit_rig.h"
 #include "linear_blend_skinning.h"
 
 #include <sweepdeform_io/animation.h>
@@ -33,27 +33,8 @@ struct Case {
     std::unique_ptr<sd::Deformer> deformer;
 };
 
-sd::fit::FitInput fit_input(const sd::io::Character& c) {
-    sd::fit::FitInput in;
-    in.vertex_count = static_cast<int>(c.positions.size() / 3);
-    in.positions = c.positions.data();
-    in.triangle_count = static_cast<int>(c.triangles.size() / 3);
-    in.triangles = c.triangles.data();
-    in.skeleton = sd::Skeleton::from_arrays(static_cast<int>(c.bone_names.size()), c.bone_parents.data(),
-                                            c.bone_rest.data(), c.bone_heads.data(), c.bone_tails.data());
-    in.bone_names = c.bone_names;
-    in.skin_slots = 4;
-    in.skin_bones = c.skin_joints.data();
-    in.skin_weights = c.skin_weights.data();
-    return in;
-}
-
-sd::Binding bind(const sd::io::Character& c, const sd::fit::FitResult& f) {
-    const sd::fit::RegionWeights& w = f.weights;
-    return sd::bind_vertices(f.rig, static_cast<int>(c.positions.size() / 3), c.positions.data(), w.sweep_slots,
-                             w.sweep_ids.data(), w.sweep_weights.data(), w.bone_slots, w.bone_ids.data(),
-                             w.bone_weights.data());
-}
+using sd::bench::bind_fitted;
+using sd::bench::fit_input;
 
 Case* g_case = nullptr;
 
@@ -89,7 +70,7 @@ void BM_FitAndBind(benchmark::State& state) {
     Case& c = *g_case;
     for (auto _ : state) {
         const sd::fit::FitResult f = sd::fit::fit_rig(fit_input(c.character));
-        const sd::Binding b = bind(c.character, f);
+        const sd::Binding b = bind_fitted(c.character, f);
         benchmark::DoNotOptimize(b.sweep_influences.data());
     }
 }
@@ -99,19 +80,6 @@ void BM_FitAndBind(benchmark::State& state) {
 BENCHMARK(BM_SweepDeform)->Arg(1)->Arg(0)->ArgName("volume")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly();
 BENCHMARK(BM_LinearBlendSkinning4)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly();
 BENCHMARK(BM_FitAndBind)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
-
-/// Console output as usual, plus each benchmark's real time per iteration in ms.
-class RecordingReporter : public benchmark::ConsoleReporter {
-public:
-    std::map<std::string, double> ms;
-    void ReportRuns(const std::vector<Run>& runs) override {
-        ConsoleReporter::ReportRuns(runs);
-        for (const Run& r : runs)
-            if (r.run_type == Run::RT_Iteration || r.aggregate_name == "median")
-                ms[r.benchmark_name()] = r.GetAdjustedRealTime() *
-                                         (r.time_unit == benchmark::kMillisecond ? 1.0 : 1e-6);
-    }
-};
 
 }  // namespace
 
@@ -131,7 +99,7 @@ int main(int argc, char** argv) {
         if (anims.animations[i].name.find("dance") != std::string::npos) clip = static_cast<int>(i);
     for (int f = 0; f < 120; ++f) c.poses.push_back(sd::io::sample_pose(anims, clip, 1.0 + f / 30.0));
     c.fit = std::make_unique<sd::fit::FitResult>(sd::fit::fit_rig(fit_input(c.character)));
-    c.deformer = std::make_unique<sd::Deformer>(c.fit->rig, bind(c.character, *c.fit));
+    c.deformer = std::make_unique<sd::Deformer>(c.fit->rig, bind_fitted(c.character, *c.fit));
     const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     g_case = &c;
 
@@ -139,16 +107,13 @@ int main(int argc, char** argv) {
     std::printf("case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %zu sweeps, clip %s, %d threads (setup %.2f s)\n",
                 V, c.fit->rig.sweeps.size(), anims.animations[clip].name.c_str(),
                 tbb::info::default_concurrency(), setup);
-    RecordingReporter reporter;
+    sd::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);
     benchmark::Shutdown();
 
-    const auto ms = [&](const std::string& prefix) {
-        for (const auto& [name, t] : reporter.ms)  // the median where there are repetitions
-            if (name.rfind(prefix, 0) == 0 && (name.find("_median") != std::string::npos ||
-                                               name.find("repeats") == std::string::npos))
-                return t;
-        return 0.0;
+    const auto ms = [&](const std::string& name) {
+        const auto it = reporter.ms.find(name);
+        return it == reporter.ms.end() ? 0.0 : it->second;
     };
     const double sweep = ms("BM_SweepDeform/volume:1"), sweep_nv = ms("BM_SweepDeform/volume:0");
     const double lbs = ms("BM_LinearBlendSkinning4"), fit_bind = ms("BM_FitAndBind");
