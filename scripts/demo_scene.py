@@ -102,7 +102,7 @@ def key_poses(scene, action):
         rest = [(n, f) for n, f in sorted(marks.items(), key=lambda x: x[1]) if n not in DEFAULT_POSES]
         return named + rest
     start, end = (int(x) for x in action.frame_range)
-    return [("rest", start)] + [(f"frame_{f}", f) for f in np.linspace(start, end, 6).astype(int)[1:]]
+    return [("rest", start)] + [(f"frame_{int(f)}", int(f)) for f in np.linspace(start, end, 6).astype(int)[1:]]
 
 
 def make_columns(arm, body, spacing):
