@@ -29,6 +29,24 @@ for key in {keys!r}:
         r["seconds"] = time.perf_counter() - t
         r["state"], r["sweeps"] = obj.sweep_deform.state, obj.sweep_deform.sweep_count
         r["labels"] = helpers.sub("runtime").entry(obj).labels
+        # Issue 3 on every character, the built-in one included: bound share, rest pose
+        # reproduced, elbow and knee key ellipses against their cross-sections.
+        rep = json.loads(obj.get("_sweep_deform_fit_report", "") or "{{}}")
+        r["bound"] = rep["regions"]["vertices_bound"] / rep["mesh"]["vertices"]
+        r["joint_area_errors"] = [k["ellipse_area"] / k["section_area"] - 1.0
+                                  for c in rep["chains"] if c["kind"] in ("arm", "leg") and c["sweep"] >= 0
+                                  for k in c["keys"] if k["role"] == "joint" and k["section_area"] > 0]
+        arm = obj.sweep_deform.armature
+        if arm.animation_data:
+            arm.animation_data.action = None
+        for pb in arm.pose.bones:
+            pb.matrix_basis.identity()
+        bpy.context.view_layer.update()
+        # The core's own output at the rest pose (the add-on subtracts it, so the evaluated
+        # mesh is exact by construction; this checks the binding itself).
+        _, rest = helpers.core_expectation(obj)
+        base = helpers.base_positions(obj)
+        r["rest_error"] = float(np.abs(rest - base).max() / helpers.diagonal(base))
         helpers.pose_limbs(char, elbow=1.2, knee=1.1)
         bpy.context.view_layer.update()
         co, _ = helpers.evaluated_positions(obj)
@@ -66,3 +84,9 @@ def test_add_with_automatic_fitting_on_every_character():
         assert r["sweeps"] >= 5  # torso, arms and legs at least
         assert r["equals_core"] and r["moved"] > 0.05
         assert r["vs_armature_mean"] < 0.01 and r["vs_armature_max"] < 0.1
+        print(f"{key}: {100 * r['bound']:.1f} % bound, rest error {r['rest_error']:.1e} x diagonal, "
+              f"elbow/knee key areas vs sections {[round(100 * e, 1) for e in r['joint_area_errors']]} %")
+        assert r["bound"] >= 0.99
+        assert r["rest_error"] <= 1e-6
+        assert len(r["joint_area_errors"]) >= 4  # both elbows and both knees
+        assert max(abs(e) for e in r["joint_area_errors"]) <= 0.10
