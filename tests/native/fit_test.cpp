@@ -3,6 +3,7 @@
 // ../shared/data: chains, binding coverage, rest round trip, elbow/knee key areas against
 // the true cross-section, 90° bends through the character's own skeleton, and the time of
 // fitting + binding the refined 80K-vertex MakeHuman.
+#include "fit_support.h"
 #include "bind.h"
 #include "deform.h"
 #include "fit/cross_section.h"
@@ -512,25 +513,8 @@ std::string data_file(const std::string& name) {
 #define REQUIRE_DATA(path) \
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found: skipped"
 
-Skeleton skeleton_of(const io::Character& c) {
-    const int B = static_cast<int>(c.bone_names.size());
-    return Skeleton::from_arrays(B, c.bone_parents.data(), c.bone_rest.data(), c.bone_heads.data(),
-                                 c.bone_tails.data());
-}
-
-fit::FitInput character_input(const io::Character& c, const Skeleton& s) {
-    fit::FitInput in;
-    in.vertex_count = static_cast<int>(c.positions.size() / 3);
-    in.positions = c.positions.data();
-    in.triangle_count = static_cast<int>(c.triangles.size() / 3);
-    in.triangles = c.triangles.data();
-    in.skeleton = s;
-    in.bone_names = c.bone_names;
-    in.skin_slots = 4;
-    in.skin_bones = c.skin_joints.data();
-    in.skin_weights = c.skin_weights.data();
-    return in;
-}
+using testing::character_input;
+using testing::skeleton_of;
 
 /// Area of the mesh's cross-section in the plane (o, n) inside the disc of radius R about
 /// o, by Green's theorem over every triangle's cut segment, oriented by the triangle's

@@ -3,6 +3,7 @@
 // moves — skin on the spine, the neck or the clavicle — stays where linear blend skinning
 // puts it, and the trunk's skin stays smooth (no fold where arm-bound skin swings up while
 // the skin above stays with the torso).
+#include "fit_support.h"
 #include "bind.h"
 #include "deform.h"
 #include "fit/fit_rig.h"
@@ -29,25 +30,8 @@ std::string data_file(const std::string& name) {
     return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name;
 }
 
-Skeleton skeleton_of(const io::Character& c) {
-    const int B = static_cast<int>(c.bone_names.size());
-    return Skeleton::from_arrays(B, c.bone_parents.data(), c.bone_rest.data(), c.bone_heads.data(),
-                                 c.bone_tails.data());
-}
-
-fit::FitInput character_input(const io::Character& c, const Skeleton& s) {
-    fit::FitInput in;
-    in.vertex_count = static_cast<int>(c.positions.size() / 3);
-    in.positions = c.positions.data();
-    in.triangle_count = static_cast<int>(c.triangles.size() / 3);
-    in.triangles = c.triangles.data();
-    in.skeleton = s;
-    in.bone_names = c.bone_names;
-    in.skin_slots = 4;
-    in.skin_bones = c.skin_joints.data();
-    in.skin_weights = c.skin_weights.data();
-    return in;
-}
+using testing::character_input;
+using testing::skeleton_of;
 
 bool below(const Skeleton& s, int b, int root) {
     for (int x = b; x >= 0; x = s.parents[x])
