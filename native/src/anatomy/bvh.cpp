@@ -1,4 +1,5 @@
 #include "anatomy/bvh.h"
+#include "anatomy/disjoint_sets.h"
 
 #include <tbb/parallel_for.h>
 
@@ -9,23 +10,6 @@
 namespace sd::anatomy {
 
 namespace {
-
-/// Union-find over local indices.
-struct DisjointSets {
-    std::vector<int32_t> parent;
-    explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-    int32_t find(int32_t x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-    }
-    bool unite(int32_t a, int32_t b) {
-        a = find(a);
-        b = find(b);
-        if (a == b) return false;
-        parent[std::max(a, b)] = std::min(a, b);
-        return true;
-    }
-};
 
 /// Up to 3 triangles sharing an edge with each triangle (-1 where none): for each edge the
 /// first other triangle found on it.

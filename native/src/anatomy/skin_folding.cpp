@@ -1,4 +1,5 @@
 #include "anatomy/skin_folding.h"
+#include "anatomy/disjoint_sets.h"
 
 #include <Eigen/Eigenvalues>
 
@@ -14,20 +15,6 @@ namespace {
 
 // cos 75 degrees: how squarely skin must face the other sheet to be pulled back.
 constexpr double kFacing = 0.26;
-
-struct DisjointSets {
-    std::vector<int32_t> parent;
-    explicit DisjointSets(size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-    int32_t find(int32_t x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-    }
-    void unite(int32_t a, int32_t b) {
-        a = find(a);
-        b = find(b);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
-    }
-};
 
 dvec3 point(const float* p, int v) {
     return dvec3(p[3 * static_cast<size_t>(v)], p[3 * static_cast<size_t>(v) + 1], p[3 * static_cast<size_t>(v) + 2]);
