@@ -112,12 +112,9 @@ int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
     Case c;
     const auto t0 = std::chrono::steady_clock::now();
-    c.character = sd::io::refine_catmull_clark(sd::io::load_gltf_character(data + "mh_male_game_engine.glb"), 1);
-    const sd::io::Character anims = sd::io::load_gltf_character(data + "mh_male_game_engine_anims.glb");
-    int clip = 0;
-    for (size_t i = 0; i < anims.animations.size(); ++i)
-        if (anims.animations[i].name.find("dance") != std::string::npos) clip = static_cast<int>(i);
-    for (int f = 0; f < 120; ++f) c.poses.push_back(sd::io::sample_pose(anims, clip, 1.0 + f / 30.0));
+    sd::bench::MotionCase motion = sd::bench::load_motion_case(data);
+    c.character = std::move(motion.character);
+    c.poses = std::move(motion.poses);
 
     const sd::io::Character& ch = c.character;
     const int V = static_cast<int>(ch.positions.size() / 3), T = static_cast<int>(ch.triangles.size() / 3);
@@ -153,7 +150,7 @@ int main(int argc, char** argv) {
                 "%d joints, %d triangles in their collision regions, clip %s, %d threads "
                 "(setup %.1f s, anatomy %.2f s)\n",
                 V, T, c.fit.rig.sweeps.size(), c.anatomy->joint_count(), c.anatomy->stats().collision_triangles,
-                anims.animations[clip].name.c_str(), tbb::info::default_concurrency(),
+                motion.clip.c_str(), tbb::info::default_concurrency(),
                 std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
     sd::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);

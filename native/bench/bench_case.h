@@ -5,6 +5,10 @@
 
 #include "fit_support.h"
 
+#include <sweepdeform_io/animation.h>
+#include <sweepdeform_io/gltf_loader.h>
+#include <sweepdeform_io/refine.h>
+
 #include <benchmark/benchmark.h>
 
 #include <map>
@@ -15,6 +19,27 @@ namespace sd::bench {
 
 using testing::bind_fitted;
 using testing::fit_input;
+
+/// The benchmarks' character and motion: MakeHuman male (humans/mh_male_game_engine.glb in
+/// the shared data) refined one Catmull–Clark level (80,270 vertices), and `frames` poses of
+/// the CMU dance clip of its _anims.glb at 30 fps from t = 1 s.
+struct MotionCase {
+    io::Character character;
+    std::vector<std::vector<float>> poses;
+    std::string clip;  ///< name of the clip the poses come from
+};
+
+inline MotionCase load_motion_case(const std::string& humans_dir, int frames = 120) {
+    MotionCase c;
+    c.character = io::refine_catmull_clark(io::load_gltf_character(humans_dir + "mh_male_game_engine.glb"), 1);
+    const io::Character anims = io::load_gltf_character(humans_dir + "mh_male_game_engine_anims.glb");
+    int clip = 0;
+    for (size_t i = 0; i < anims.animations.size(); ++i)
+        if (anims.animations[i].name.find("dance") != std::string::npos) clip = static_cast<int>(i);
+    for (int f = 0; f < frames; ++f) c.poses.push_back(io::sample_pose(anims, clip, 1.0 + f / 30.0));
+    c.clip = anims.animations[clip].name;
+    return c;
+}
 
 /// Console output as usual, plus each benchmark's real time per iteration in ms: the median
 /// where there are repetitions, else the single run. Look up by function name.

@@ -92,12 +92,9 @@ int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
     Case c;
     const auto t0 = std::chrono::steady_clock::now();
-    c.character = sd::io::refine_catmull_clark(sd::io::load_gltf_character(data + "mh_male_game_engine.glb"), 1);
-    const sd::io::Character anims = sd::io::load_gltf_character(data + "mh_male_game_engine_anims.glb");
-    int clip = 0;
-    for (size_t i = 0; i < anims.animations.size(); ++i)
-        if (anims.animations[i].name.find("dance") != std::string::npos) clip = static_cast<int>(i);
-    for (int f = 0; f < 120; ++f) c.poses.push_back(sd::io::sample_pose(anims, clip, 1.0 + f / 30.0));
+    sd::bench::MotionCase motion = sd::bench::load_motion_case(data);
+    c.character = std::move(motion.character);
+    c.poses = std::move(motion.poses);
     c.fit = std::make_unique<sd::fit::FitResult>(sd::fit::fit_rig(fit_input(c.character)));
     c.deformer = std::make_unique<sd::Deformer>(c.fit->rig, bind_fitted(c.character, *c.fit));
     const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -105,7 +102,7 @@ int main(int argc, char** argv) {
 
     const int V = static_cast<int>(c.character.positions.size() / 3);
     std::printf("case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %zu sweeps, clip %s, %d threads (setup %.2f s)\n",
-                V, c.fit->rig.sweeps.size(), anims.animations[clip].name.c_str(),
+                V, c.fit->rig.sweeps.size(), motion.clip.c_str(),
                 tbb::info::default_concurrency(), setup);
     sd::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);
