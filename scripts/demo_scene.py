@@ -396,9 +396,11 @@ def measure(columns, chains, tris, native, regions, height):
     return out
 
 
-def time_methods(scene, columns, frames):
-    """ms per frame of each method alone: frame changes with only that method's body
-    evaluated, minus the same with no body (armature evaluation and scene overhead)."""
+def time_methods(scene, columns, frames, rounds=5):
+    """ms per frame from pose change to evaluated mesh, per method: frame changes with only that
+    method's body visible, and once with no body at all ("armature only": armature evaluation
+    and scene overhead, which every method pays). Rounds alternate between the methods so that a
+    busy machine slows them alike; each figure is the median over the rounds."""
     from bl_ext.user_default.sweep_deform import modifier  # noqa: E402 (installed by now)
     sweep_mods = {col["key"]: modifier.find(col["body"]) for col in columns}
 
@@ -406,25 +408,29 @@ def time_methods(scene, columns, frames):
         for col in columns:
             col["body"].hide_viewport = col is not active
             # The add-on's frame handler evaluates hidden bodies too: only the active column's
-            # Sweep Deform may run, or its cost lands in the baseline.
+            # Sweep Deform may run, or its cost lands in another method's figure.
             if sweep_mods[col["key"]] is not None:
                 sweep_mods[col["key"]].show_viewport = col is active
         bpy.context.view_layer.update()
         dg = bpy.context.evaluated_depsgraph_get()
-        scene.frame_set(frames[0])
+        scene.frame_set(frames[-1])
         t0 = time.perf_counter()
         for f in frames:
             scene.frame_set(f)
             if active is not None:
-                active["body"].evaluated_get(dg)
+                active["body"].evaluated_get(dg).data  # noqa: B018 (forces the evaluated mesh)
         return (time.perf_counter() - t0) * 1000.0 / len(frames)
-    base = min(run(None) for _ in range(2))
-    result = {col["key"]: max(0.0, min(run(col) for _ in range(2)) - base) for col in columns}
+
+    samples = {key: [] for key in ["armature_only"] + [col["key"] for col in columns]}
+    for _ in range(rounds):
+        samples["armature_only"].append(run(None))
+        for col in columns:
+            samples[col["key"]].append(run(col))
     for col in columns:
         col["body"].hide_viewport = False
         if sweep_mods[col["key"]] is not None:
             sweep_mods[col["key"]].show_viewport = True
-    return result
+    return {key: float(np.median(v)) for key, v in samples.items()}
 
 
 # ---- report ------------------------------------------------------------------------------
@@ -446,7 +452,7 @@ def relative(figs, rest):
     return rel
 
 
-def write_report(out_dir, info, poses, timing):
+def write_report(out_dir, info, poses, timing, timing_frames):
     with open(os.path.join(out_dir, "report.json"), "w") as f:
         json.dump({"character": info, "ms_per_frame": timing, "poses": poses}, f, indent=2)
     lines = [f"# Sweep Deform demo report: {info['name']}", "",
@@ -455,8 +461,11 @@ def write_report(out_dir, info, poses, timing):
              "intersecting pairs are pairs of skin triangles near the joint that cross each other "
              "(exact test). Limb volume: the flesh between the skin of the limb's region and its bones.", "",
              "## Time per frame (pose change to evaluated mesh)", "",
+             f"Median of 5 alternating rounds over {timing_frames} frames of the clip, with only that "
+             "method's body in the scene; \"armature only\" is the same with no body (armature "
+             "evaluation and scene overhead, which every method includes).", "",
              "| method | ms per frame |", "|---|---|"]
-    lines += [f"| {label} | {timing[key]:.2f} |" for key, label in METHODS]
+    lines += [f"| {label} | {timing[key]:.2f} |" for key, label in [("armature_only", "armature only")] + METHODS]
     for pose in poses:
         lines += ["", f"## {pose['name']} (frame {pose['frame']})", "", f"![{pose['name']}](poses/{pose['name']}.png)", ""]
         limbs = sorted(next(iter(pose["methods"].values()))["limb_volume_change_percent"])
@@ -535,11 +544,12 @@ def main():
         render(scene, os.path.join(out_dir, "motion", f"frame_{i:04d}.png"))
 
     step = max(1, (end - start) // max(1, args.timing_frames))
-    timing = time_methods(scene, columns, list(range(start, end + 1, step)))
+    timing_frames = list(range(start, end + 1, step))
+    timing = time_methods(scene, columns, timing_frames)
     info = {"name": os.path.basename(args.character), "vertices": len(body.data.vertices),
             "triangles": int(len(tris)), "chains": [c["name"] for c in chains],
             "blender": bpy.app.version_string}
-    write_report(out_dir, info, report_poses, timing)
+    write_report(out_dir, info, report_poses, timing, len(timing_frames))
     print(f"demo: wrote {out_dir}/report.md, report.json, poses/ and motion/", flush=True)
 
 
