@@ -34,6 +34,9 @@ trap 'rm -rf "$scratch"' EXIT
 export BLENDER_USER_RESOURCES="$scratch/user"
 export SWEEPDEFORM_TEST_TMP="$scratch/tmp"
 mkdir -p "$BLENDER_USER_RESOURCES" "$SWEEPDEFORM_TEST_TMP"
+# The command-line tool runs here, on the host; test_cli_matches.py compares inside Blender.
+export SWEEPDEFORM_CLI_OUTPUT="$scratch/cli"
+"$here/cli_outputs.sh" "$build" "$SWEEPDEFORM_CLI_OUTPUT"
 cd "$repo"
 exec_rc=0
 "$repo/scripts/blender" --use "$use" -b --factory-startup --python-exit-code 1 \
