@@ -1,6 +1,7 @@
 # Script mode (cmake -P): stages the extension and zips it.
 #   ADDON_DIR  addon/sweep_deform       LIBRARY  the built libsweepdeform.so.<version>
 #   STAGE      scratch directory        ZIP      the zip to write
+#   EXTRA_LIBRARIES  optional: more libraries of ours for lib/ (libsweepdeform_dmap.so.<version>)
 # Libraries of the base system (glibc, the C++ runtime, the dynamic loader) are not bundled:
 # Blender itself needs them and every Linux that runs Blender has them (Blender's own builds
 # assume the same). Everything else the library needs is copied into lib/ under its SONAME,
@@ -17,14 +18,18 @@ file(REMOVE_RECURSE ${STAGE})
 file(MAKE_DIRECTORY ${STAGE}/lib)
 file(GLOB sources ${ADDON_DIR}/*.py ${ADDON_DIR}/*.toml ${ADDON_DIR}/*.md)
 file(COPY ${sources} DESTINATION ${STAGE})
+set(ours ${LIBRARY} ${EXTRA_LIBRARIES})
+foreach(lib ${ours})
+  get_filename_component(name ${lib} NAME)
+  configure_file(${lib} ${STAGE}/lib/${name} COPYONLY)
+endforeach()
 get_filename_component(library_name ${LIBRARY} NAME)
-configure_file(${LIBRARY} ${STAGE}/lib/${library_name} COPYONLY)
 
 set(system_libraries
   "^ld-linux" "^libc\\.so" "^libm\\.so" "^libdl\\.so" "^libpthread\\.so" "^librt\\.so"
   "^libstdc\\+\\+\\.so" "^libgcc_s\\.so" "^linux-vdso")
 file(GET_RUNTIME_DEPENDENCIES
-  LIBRARIES ${LIBRARY}
+  LIBRARIES ${ours}
   RESOLVED_DEPENDENCIES_VAR resolved
   UNRESOLVED_DEPENDENCIES_VAR unresolved
   PRE_EXCLUDE_REGEXES ${system_libraries}

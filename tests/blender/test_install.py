@@ -48,22 +48,24 @@ def test_tbb_is_blenders_one_copy():
 
 
 def test_every_abi_function_is_declared():
-    """native.SIGNATURES against the header: same function names, same argument counts.
-    The sd_dmap_* block of the header belongs to another library (libsweepdeform_dmap.so,
-    which the add-on neither ships nor loads)."""
+    """native.SIGNATURES and native_dmap.SIGNATURES against the header: same function names,
+    same argument counts. The sd_dmap_* block belongs to libsweepdeform_dmap (native_dmap.py),
+    the rest to libsweepdeform (native.py)."""
     header = open(os.path.join(helpers.REPO, "native", "include", "sweepdeform", "sweepdeform.h")).read()
     header = re.sub(r"/\*.*?\*/", "", header, flags=re.S)
     declared = {}
     for m in re.finditer(r"SD_API\s+[\w\s\*]+?\b(sd_\w+)\s*\(([^)]*)\)", header):
         args = m.group(2).strip()
-        if not m.group(1).startswith("sd_dmap_"):
-            declared[m.group(1)] = 0 if args in ("", "void") else args.count(",") + 1
-    native = helpers.sub("native")
-    assert set(declared) == set(native.SIGNATURES)
-    lib = native.library()
-    for name, count in declared.items():
-        assert len(native.SIGNATURES[name][1]) == count, name
-        assert getattr(lib, name).argtypes is not None, name
+        declared[m.group(1)] = 0 if args in ("", "void") else args.count(",") + 1
+    for module, in_it in (("native", lambda n: not n.startswith("sd_dmap_")),
+                          ("native_dmap", lambda n: n.startswith("sd_dmap_"))):
+        binding = helpers.sub(module)
+        mine = {n: c for n, c in declared.items() if in_it(n)}
+        assert set(mine) == set(binding.SIGNATURES), module
+        lib = binding.library()
+        for name, count in mine.items():
+            assert len(binding.SIGNATURES[name][1]) == count, name
+            assert getattr(lib, name).argtypes is not None, name
 
 
 def test_missing_library_is_reported_clearly(monkeypatch, tmp_path):
