@@ -220,25 +220,33 @@ _lib = None
 _load_error = None
 
 
+def bundled_path(file_name, override_variable):
+    """$override_variable if set, else <extension>/lib/<file_name>."""
+    return os.environ.get(override_variable) or os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib",
+                                                             file_name)
+
+
+def open_library(path, what):
+    """ctypes.CDLL of `path` (never closed: ctypes keeps it for the life of the process);
+    NativeLibraryError naming `what` and the file if it is missing or cannot be loaded."""
+    if not os.path.isfile(path):
+        raise NativeLibraryError(
+            f"Sweep Deform's {what} is missing: {path} does not exist. "
+            "Reinstall the extension from a complete sweep_deform-<version>.zip.")
+    try:
+        return ctypes.CDLL(path, mode=ctypes.RTLD_LOCAL)
+    except OSError as e:
+        raise NativeLibraryError(f"Sweep Deform could not load {path}: {e}") from e
+
+
 def library_path():
     """Where the library is expected: $SWEEPDEFORM_LIBRARY, else <extension>/lib/LIBRARY_FILE."""
-    override = os.environ.get("SWEEPDEFORM_LIBRARY")
-    if override:
-        return override
-    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib", LIBRARY_FILE)
+    return bundled_path(LIBRARY_FILE, "SWEEPDEFORM_LIBRARY")
 
 
 def _load():
     path = library_path()
-    if not os.path.isfile(path):
-        raise NativeLibraryError(
-            f"Sweep Deform's native library is missing: {path} does not exist. "
-            "Reinstall the extension from a complete sweep_deform-<version>.zip.")
-    try:
-        # Never closed: ctypes keeps the handle for the life of the process.
-        lib = ctypes.CDLL(path, mode=ctypes.RTLD_LOCAL)
-    except OSError as e:
-        raise NativeLibraryError(f"Sweep Deform could not load {path}: {e}") from e
+    lib = open_library(path, "native library")
     try:
         lib.sd_abi_version.restype = c_int32
         lib.sd_abi_version.argtypes = []

@@ -14,12 +14,11 @@ a bound object stores, and binding points through it returns a binding blob for
 """
 
 import ctypes
-import os
 
 import numpy as np
 
 from .native import (F32, F32_OUT, I32, I32_OUT, SD_OK, STATUS_NAMES, U8, NativeError, NativeLibraryError,
-                     Status, c_float, c_int32, c_int64)
+                     Status, bundled_path, c_float, c_int32, c_int64, open_library)
 
 #: The file this add-on version ships and loads (versioned, like native.LIBRARY_FILE).
 LIBRARY_FILE = "libsweepdeform_dmap.so.0.1.0"
@@ -60,10 +59,7 @@ _lib = None
 
 def library_path():
     """$SWEEPDEFORM_DMAP_LIBRARY, else <extension>/lib/LIBRARY_FILE."""
-    override = os.environ.get("SWEEPDEFORM_DMAP_LIBRARY")
-    if override:
-        return override
-    return os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib", LIBRARY_FILE)
+    return bundled_path(LIBRARY_FILE, "SWEEPDEFORM_DMAP_LIBRARY")
 
 
 def library():
@@ -72,13 +68,7 @@ def library():
     if _lib is not None:
         return _lib
     path = library_path()
-    if not os.path.isfile(path):
-        raise NativeLibraryError(f"Sweep Deform's displacement-map library is missing: {path} does not exist. "
-                                 "Reinstall the extension from a complete sweep_deform-<version>.zip.")
-    try:
-        lib = ctypes.CDLL(path, mode=ctypes.RTLD_LOCAL)
-    except OSError as e:
-        raise NativeLibraryError(f"Sweep Deform could not load {path}: {e}") from e
+    lib = open_library(path, "displacement-map library")
     missing = [n for n in SIGNATURES if not hasattr(lib, n)]
     if missing:
         raise NativeLibraryError(f"{path} lacks {', '.join(missing)}")

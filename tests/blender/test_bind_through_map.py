@@ -148,3 +148,15 @@ def test_bad_sources_and_targets_change_nothing():
         o.select_set(False)
     bpy.context.view_layer.objects.active = body
     assert not bpy.ops.object.sweep_deform_bind_through_map.poll()
+
+
+def test_missing_map_library_is_reported(monkeypatch):
+    char = helpers.load("fixture")
+    body = helpers.bind(char)
+    fine = finer_copy(body, "Body_fine")
+    native_dmap = helpers.sub("native_dmap")
+    monkeypatch.setattr(native_dmap, "_lib", None)
+    monkeypatch.setenv("SWEEPDEFORM_DMAP_LIBRARY", "/nonexistent/libsweepdeform_dmap.so.0.1.0")
+    with pytest.raises(RuntimeError, match="displacement-map library is missing"):
+        bind_selected_through(body, [fine])
+    assert fine.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(fine) is None
