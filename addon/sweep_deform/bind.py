@@ -18,7 +18,7 @@ import uuid
 
 import numpy as np
 
-from . import modifier, native, persistence, rig_io
+from . import modifier, native, persistence, rig_io, transforms
 
 #: Influences per vertex read from the vertex groups for the fitting.
 SKIN_SLOTS = 8
@@ -113,6 +113,14 @@ def read_inputs(obj, arm):
     if obj.mode == 'EDIT':
         raise BindError("Leave Edit Mode before binding")
     mesh = obj.data
+    # The binding lives in the object and the offsets in the mesh (a linked armature is fine).
+    for what, data in ((f"'{obj.name}'", obj), (f"The mesh '{mesh.name}'", mesh)):
+        if data.library is not None:
+            raise BindError(f"{what} is linked from '{data.library.filepath}' and cannot be changed in this "
+                            "file: bind it in that file (a linked character keeps the binding it was saved with)")
+    problem = transforms.transforms_problem(obj.matrix_world, obj.name, arm.matrix_world, arm.name)
+    if problem:
+        raise BindError(f"{problem}: fix it before binding")
     if mesh.users > 1:
         raise BindError(f"The mesh '{mesh.name}' is used by {mesh.users} objects; the offsets live in "
                         "the mesh, so make it single user first (Object > Relations > Make Single User)")

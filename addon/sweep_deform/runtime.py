@@ -21,7 +21,7 @@ import json
 
 import numpy as np
 
-from . import modifier, native, persistence, rig_io
+from . import modifier, native, persistence, rig_io, transforms
 
 _cache = {}
 
@@ -33,6 +33,7 @@ class Entry:
         self.bind_id = obj.sweep_deform.bind_id
         self.armature_name = obj.sweep_deform.armature.name if obj.sweep_deform.armature else ""
         self.error = ""
+        self.load_error = ""  # why the stored binding could not be used (error may say more)
         self.deformer = None
         self.key = None
         self.settings = None
@@ -84,7 +85,7 @@ class Entry:
             self.deformer = None
         except (native.NativeError, KeyError, ValueError) as e:
             # The stored binding cannot be used (damaged blob, bones missing, ...).
-            self.error = str(e)
+            self.error = self.load_error = str(e)
             self.deformer = None
             self.unusable = True
 
@@ -434,6 +435,12 @@ def settings_changed(obj):
 
 
 def _set_rebind(obj, message):
+    if obj.library is not None:
+        # Linked: its properties are read-only in this file, so the state stays; the panel
+        # shows why (the entry's error) and the mesh is shown undeformed.
+        _refuse(entry(obj), obj, message)
+        modifier.clear_offsets(obj.data)
+        return
     s = obj.sweep_deform
     if s.state != 'REBIND':
         s.state = 'REBIND'
@@ -449,6 +456,9 @@ def _modifier_gone(obj):
     replaced gets its deformation back; if they changed it was applied (the deformation is in
     the mesh now), and re-enabling the Armature modifier would deform twice."""
     from . import bind
+    if obj.library is not None:  # read-only here: nothing to restore, only say why
+        _refuse(entry(obj), obj, "The Sweep Deform modifier is missing in the library this object is linked from")
+        return
     removed = persistence.rest_positions_match(obj) if persistence.counts_match(obj) else False
     bind.unbind(obj, restore_armature_modifier=removed)
 
@@ -465,6 +475,30 @@ def check_topology(obj):
 
 
 # ---- one frame -------------------------------------------------------------------------
+
+
+#: What the user is told after a refused frame, and what happens.
+KEPT = "the mesh keeps its last good deformation until this is fixed"
+
+
+def _refuse(e, obj, message):
+    """A frame that cannot be deformed: nothing is written, the panel shows `message` (the
+    entry's error) and the console gets it once (command-line renders have no panel)."""
+    if message != e.error:
+        print(f"Sweep Deform: '{obj.name}': {message}")
+    e.error = message
+
+
+def shares_mesh(obj):
+    """Whether another object uses the object's mesh: the offsets live in the mesh, so it can
+    follow one armature only. The linked original a library override replaces is no other
+    user (it is not in the scene; its mesh stays linked, and the override deforms it)."""
+    mesh = obj.data
+    if mesh.users <= 1:
+        return False
+    import bpy
+    original = obj.override_library.reference if obj.override_library is not None else None
+    return any(o.data == mesh and o != obj and o != original for o in bpy.data.objects)
 
 
 def _armature_pose(e, arm_eval):
@@ -509,7 +543,7 @@ def evaluate(obj, depsgraph, render=False):
     arm = s.armature
     if arm is None or arm.mode == 'EDIT':
         return False
-    if obj.data.users > 1:
+    if shares_mesh(obj):
         _set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single user "
                          "and bind again")
         return False
@@ -519,7 +553,7 @@ def evaluate(obj, depsgraph, render=False):
     e = entry(obj)
     if e.deformer is None:
         if e.unusable:
-            _set_rebind(obj, f"The stored binding cannot be used ({e.error}): bind again")
+            _set_rebind(obj, f"The stored binding cannot be used ({e.load_error}): bind again")
         return False
     if not e.rest_checked:
         e.rest_checked = True
@@ -533,9 +567,19 @@ def evaluate(obj, depsgraph, render=False):
     except KeyError as err:
         _set_rebind(obj, f"{err.args[0]}: bind again")
         return False
-    e.last_pose = pose
+    problem = transforms.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
+    if problem:
+        _refuse(e, obj, f"{problem}: {KEPT}")
+        e.key = None
+        return False
     # Offsets are vectors: only the linear part of mesh → armature space maps them back.
-    linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
+    try:
+        linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
+        to_mesh = e.to_mesh_space(linear)
+    except (ValueError, np.linalg.LinAlgError):  # flat in float32 though not quite in float64
+        _refuse(e, obj, f"The object '{obj.name}' or its armature has a zero scale: {KEPT}")
+        e.key = None
+        return False
     settings = (bool(s.use_volume_preservation), float(s.volume_strength))
     # Corrections: in the viewport from the object itself (Blender copies animated and driven
     # values back to it for the active depsgraph, and a removed item is seen at once); in a
@@ -556,11 +600,16 @@ def evaluate(obj, depsgraph, render=False):
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
-        e.error = str(err)
+        _refuse(e, obj, f"Unusable pose: {transforms.name_bones(str(err), e.bone_names)}: {KEPT}")
         e.key = key
         return False
-    offsets = rig_io.offsets_into(deformed, e.rest, e.to_mesh_space(linear), e.offsets, e.scratch)
+    offsets = rig_io.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+    if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
+        _refuse(e, obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
+        e.key = key
+        return False
     modifier.write_offsets(obj.data, offsets)
+    e.last_pose = pose.copy()  # the overlay and key edits follow the pose the mesh shows
     e.key = key
     e.error = ""
     e.frames += 1
