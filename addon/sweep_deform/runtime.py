@@ -435,11 +435,9 @@ def settings_changed(obj):
 
 
 def _set_rebind(obj, message):
-    if obj.library is not None:
-        # Linked: its properties are read-only in this file, so the state stays; the panel
-        # shows why (the entry's error) and the mesh is shown undeformed.
+    if obj.library is not None or obj.data.library is not None:
+        # Library data is never written (Blender would not save it): the panel says why.
         _refuse(entry(obj), obj, message)
-        modifier.clear_offsets(obj.data)
         return
     s = obj.sweep_deform
     if s.state != 'REBIND':
@@ -489,16 +487,16 @@ def _refuse(e, obj, message):
     e.error = message
 
 
-def shares_mesh(obj):
-    """Whether another object uses the object's mesh: the offsets live in the mesh, so it can
-    follow one armature only. The linked original a library override replaces is no other
-    user (it is not in the scene; its mesh stays linked, and the override deforms it)."""
-    mesh = obj.data
-    if mesh.users <= 1:
-        return False
-    import bpy
-    original = obj.override_library.reference if obj.override_library is not None else None
-    return any(o.data == mesh and o != obj and o != original for o in bpy.data.objects)
+def linked_mesh_message(obj):
+    """Why a linked mesh is not deformed (None if the mesh is local). Blender ignores an
+    add-on's writes into library data, so the offsets cannot go into it."""
+    lib = obj.data.library
+    if lib is None:
+        return None
+    return (f"The mesh '{obj.data.name}' is linked from '{lib.filepath}': Sweep Deform cannot write its "
+            "deformation into linked data, so it shows the shape saved in that file. To animate it here, make "
+            "it local (Object > Relations > Make Local > Selected Objects and Data), or a library override "
+            "of it first")
 
 
 def _armature_pose(e, arm_eval):
@@ -543,7 +541,11 @@ def evaluate(obj, depsgraph, render=False):
     arm = s.armature
     if arm is None or arm.mode == 'EDIT':
         return False
-    if shares_mesh(obj):
+    linked = linked_mesh_message(obj)
+    if linked:
+        _refuse(entry(obj), obj, linked)
+        return False
+    if obj.data.users > 1:
         _set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single user "
                          "and bind again")
         return False
