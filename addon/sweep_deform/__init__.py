@@ -8,6 +8,7 @@ Layers (dependencies point down):
     key_edit                                    numpy only: corrections, gizmo math, picking
     bind, runtime, persistence, modifier        Blender glue: binding, one frame, the .blend
     rig_io                                      numpy only: arrays between Blender and the core
+    transforms                                  plain Python: are the transforms usable? (messages)
     native                                      ctypes binding of libsweepdeform (lib/)
 
 See docs/addon.md in the repository for how the modifier works and what it costs per frame.

@@ -435,7 +435,8 @@ def settings_changed(obj):
 
 
 def _set_rebind(obj, message):
-    if obj.library is not None or obj.data.library is not None:
+    from . import bind
+    if bind.linked_reason(obj):
         # Library data is never written (Blender would not save it): the panel says why.
         _refuse(entry(obj), obj, message)
         return
@@ -454,8 +455,9 @@ def _modifier_gone(obj):
     replaced gets its deformation back; if they changed it was applied (the deformation is in
     the mesh now), and re-enabling the Armature modifier would deform twice."""
     from . import bind
-    if obj.library is not None:  # read-only here: nothing to restore, only say why
-        _refuse(entry(obj), obj, "The Sweep Deform modifier is missing in the library this object is linked from")
+    linked = bind.linked_reason(obj)
+    if linked:  # nothing can be restored here, only said
+        _refuse(entry(obj), obj, f"The Sweep Deform modifier is gone, but the binding stays: {linked}")
         return
     removed = persistence.rest_positions_match(obj) if persistence.counts_match(obj) else False
     bind.unbind(obj, restore_armature_modifier=removed)

@@ -48,7 +48,7 @@ def assert_refused(obj, last_good, *words):
     return e.error
 
 
-def test_transform_checks_are_numpy_only():
+def test_transform_checks_need_no_blender():
     transforms = helpers.sub("transforms")
     tree = ast.parse(inspect.getsource(transforms))
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))

@@ -71,10 +71,13 @@ def pose(arm, elbow, knee):
 
 
 def assert_bind_refused(obj, words):
+    """Binding is refused with a message; unbinding and key editing are not offered."""
     bpy.context.view_layer.objects.active = obj
     for op in (bpy.ops.object.sweep_deform_bind, bpy.ops.object.sweep_deform_add):
         with pytest.raises(RuntimeError, match=words):
             op()
+    assert not bpy.ops.object.sweep_deform_unbind.poll()
+    assert not bpy.ops.object.sweep_deform_edit_keys.poll()
 
 
 def save_and_reopen(name):
