@@ -7,7 +7,6 @@ Linked and appended characters are in test_library.py."""
 
 import ast
 import inspect
-import math
 
 import bpy
 import mathutils
