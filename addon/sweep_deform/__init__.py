@@ -9,6 +9,7 @@ Layers (dependencies point down):
     bind, runtime, persistence, modifier        Blender glue: binding, one frame, the .blend
     bind_through_map                            binding through a bound character's displacement map
     rig_io                                      numpy only: arrays between Blender and the core
+    transforms                                  plain Python: are the transforms usable? (messages)
     native, native_dmap                         ctypes bindings of libsweepdeform(_dmap) (lib/)
 
 See docs/addon.md in the repository for how the modifier works and what it costs per frame.

@@ -18,7 +18,7 @@ import uuid
 
 import numpy as np
 
-from . import modifier, native, persistence, rig_io
+from . import modifier, native, persistence, rig_io, transforms
 
 #: Influences per vertex read from the vertex groups for the fitting.
 SKIN_SLOTS = 8
@@ -72,6 +72,17 @@ def find_armature(obj, name=""):
 # ---- stage 1: read (main thread) ----------------------------------------------------------
 
 
+def linked_reason(obj):
+    """Why the object's binding cannot be changed in this file (its object or mesh is linked
+    from a library: the binding lives in the object, the offsets in the mesh; a linked
+    armature is fine), or None."""
+    for what, data in ((f"'{obj.name}'", obj), (f"The mesh '{obj.data.name}'", obj.data)):
+        if data is not None and data.library is not None:
+            return f"{what} is linked from '{data.library.filepath}' and cannot be changed in this file"
+    return None
+
+
+
 def skeleton_arrays(arm):
     """Bone names, parents, rest matrices, heads, tails of an armature (bone order)."""
     bones = arm.data.bones
@@ -113,6 +124,12 @@ def read_inputs(obj, arm):
     if obj.mode == 'EDIT':
         raise BindError("Leave Edit Mode before binding")
     mesh = obj.data
+    linked = linked_reason(obj)
+    if linked:
+        raise BindError(f"{linked}: bind it in that file (a linked character keeps the binding it was saved with)")
+    problem = transforms.transforms_problem(obj.matrix_world, obj.name, arm.matrix_world, arm.name)
+    if problem:
+        raise BindError(f"{problem}: fix it before binding")
     if mesh.users > 1:
         raise BindError(f"The mesh '{mesh.name}' is used by {mesh.users} objects; the offsets live in "
                         "the mesh, so make it single user first (Object > Relations > Make Single User)")

@@ -192,6 +192,9 @@ class OBJECT_OT_sweep_deform_unbind(bpy.types.Operator):
         if obj is None or obj.sweep_deform.state == 'UNBOUND':
             cls.poll_message_set("The active mesh has no sweep binding")
             return False
+        if bind.linked_reason(obj):
+            cls.poll_message_set(bind.linked_reason(obj))
+            return False
         return True
 
     def execute(self, context):
@@ -206,7 +209,8 @@ class OBJECT_OT_sweep_deform_unbind(bpy.types.Operator):
 
 def _bound_mesh(context):
     obj = _mesh_object(context)
-    return obj if obj is not None and obj.sweep_deform.state == 'BOUND' else None
+    ok = obj is not None and obj.sweep_deform.state == 'BOUND' and not bind.linked_reason(obj)
+    return obj if ok else None
 
 
 def first_joint_key(obj):

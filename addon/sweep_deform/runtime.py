@@ -21,7 +21,7 @@ import json
 
 import numpy as np
 
-from . import modifier, native, persistence, rig_io
+from . import modifier, native, persistence, rig_io, transforms
 
 _cache = {}
 
@@ -33,6 +33,7 @@ class Entry:
         self.bind_id = obj.sweep_deform.bind_id
         self.armature_name = obj.sweep_deform.armature.name if obj.sweep_deform.armature else ""
         self.error = ""
+        self.load_error = ""  # why the stored binding could not be used (error may say more)
         self.deformer = None
         self.key = None
         self.settings = None
@@ -84,7 +85,7 @@ class Entry:
             self.deformer = None
         except (native.NativeError, KeyError, ValueError) as e:
             # The stored binding cannot be used (damaged blob, bones missing, ...).
-            self.error = str(e)
+            self.error = self.load_error = str(e)
             self.deformer = None
             self.unusable = True
 
@@ -434,6 +435,11 @@ def settings_changed(obj):
 
 
 def _set_rebind(obj, message):
+    from . import bind
+    if bind.linked_reason(obj):
+        # Library data is never written (Blender would not save it): the panel says why.
+        _refuse(entry(obj), obj, message)
+        return
     s = obj.sweep_deform
     if s.state != 'REBIND':
         s.state = 'REBIND'
@@ -449,6 +455,10 @@ def _modifier_gone(obj):
     replaced gets its deformation back; if they changed it was applied (the deformation is in
     the mesh now), and re-enabling the Armature modifier would deform twice."""
     from . import bind
+    linked = bind.linked_reason(obj)
+    if linked:  # nothing can be restored here, only said
+        _refuse(entry(obj), obj, f"The Sweep Deform modifier is gone, but the binding stays: {linked}")
+        return
     removed = persistence.rest_positions_match(obj) if persistence.counts_match(obj) else False
     bind.unbind(obj, restore_armature_modifier=removed)
 
@@ -465,6 +475,30 @@ def check_topology(obj):
 
 
 # ---- one frame -------------------------------------------------------------------------
+
+
+#: What the user is told after a refused frame, and what happens.
+KEPT = "the mesh keeps its last good deformation until this is fixed"
+
+
+def _refuse(e, obj, message):
+    """A frame that cannot be deformed: nothing is written, the panel shows `message` (the
+    entry's error) and the console gets it once (command-line renders have no panel)."""
+    if message != e.error:
+        print(f"Sweep Deform: '{obj.name}': {message}")
+    e.error = message
+
+
+def linked_mesh_message(obj):
+    """Why a linked mesh is not deformed (None if the mesh is local). Blender ignores an
+    add-on's writes into library data, so the offsets cannot go into it."""
+    lib = obj.data.library
+    if lib is None:
+        return None
+    return (f"The mesh '{obj.data.name}' is linked from '{lib.filepath}': Sweep Deform cannot write its "
+            "deformation into linked data, so it shows the shape saved in that file. To animate it here, make "
+            "it local (Object > Relations > Make Local > Selected Objects and Data), or a library override "
+            "of it first")
 
 
 def _armature_pose(e, arm_eval):
@@ -509,6 +543,10 @@ def evaluate(obj, depsgraph, render=False):
     arm = s.armature
     if arm is None or arm.mode == 'EDIT':
         return False
+    linked = linked_mesh_message(obj)
+    if linked:
+        _refuse(entry(obj), obj, linked)
+        return False
     if obj.data.users > 1:
         _set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single user "
                          "and bind again")
@@ -519,7 +557,7 @@ def evaluate(obj, depsgraph, render=False):
     e = entry(obj)
     if e.deformer is None:
         if e.unusable:
-            _set_rebind(obj, f"The stored binding cannot be used ({e.error}): bind again")
+            _set_rebind(obj, f"The stored binding cannot be used ({e.load_error}): bind again")
         return False
     if not e.rest_checked:
         e.rest_checked = True
@@ -533,9 +571,19 @@ def evaluate(obj, depsgraph, render=False):
     except KeyError as err:
         _set_rebind(obj, f"{err.args[0]}: bind again")
         return False
-    e.last_pose = pose
+    problem = transforms.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
+    if problem:
+        _refuse(e, obj, f"{problem}: {KEPT}")
+        e.key = None
+        return False
     # Offsets are vectors: only the linear part of mesh → armature space maps them back.
-    linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
+    try:
+        linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
+        to_mesh = e.to_mesh_space(linear)
+    except (ValueError, np.linalg.LinAlgError):  # flat in float32 though not quite in float64
+        _refuse(e, obj, f"The object '{obj.name}' or its armature has a zero scale: {KEPT}")
+        e.key = None
+        return False
     settings = (bool(s.use_volume_preservation), float(s.volume_strength))
     # Corrections: in the viewport from the object itself (Blender copies animated and driven
     # values back to it for the active depsgraph, and a removed item is seen at once); in a
@@ -556,11 +604,16 @@ def evaluate(obj, depsgraph, render=False):
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
-        e.error = str(err)
+        _refuse(e, obj, f"Unusable pose: {transforms.name_bones(str(err), e.bone_names)}: {KEPT}")
         e.key = key
         return False
-    offsets = rig_io.offsets_into(deformed, e.rest, e.to_mesh_space(linear), e.offsets, e.scratch)
+    offsets = rig_io.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+    if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
+        _refuse(e, obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
+        e.key = key
+        return False
     modifier.write_offsets(obj.data, offsets)
+    e.last_pose = pose.copy()  # the overlay and key edits follow the pose the mesh shows
     e.key = key
     e.error = ""
     e.frames += 1
