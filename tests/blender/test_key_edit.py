@@ -399,13 +399,15 @@ def test_undo_and_the_overlay_in_the_interface():
     elbow key selected; at rest and at the elbow_bend marker (150°) the screen shows the
     overlay (its cyan where the key ellipses project) and the gizmos; three gizmo edits at
     150° make three undo steps, undone exactly and redone exactly; a simulated mouse drag on a
-    gizmo edits the key (one undo step); a click selects another key. In Blender 5.2 the two
-    screenshots are written to docs/images/ (the user guide's, docs/editing.md)."""
+    gizmo edits the key (one undo step); a click selects another key. The two screenshots go
+    to the test's scratch folder; with SWEEPDEFORM_WRITE_DOC_IMAGES=1 (Blender 5.2) they
+    replace docs/images/edit_*.png (the user guide's, docs/editing.md), so a test run never
+    changes the source tree unasked."""
     helpers.require("fixture")
     xvfb = shutil.which("xvfb-run")
     if xvfb is None:
         pytest.skip("xvfb-run not found")
-    if bpy.app.version[:2] >= (5, 2):
+    if bpy.app.version[:2] >= (5, 2) and os.environ.get("SWEEPDEFORM_WRITE_DOC_IMAGES") == "1":
         out_dir = os.path.join(helpers.REPO, "docs", "images")
     else:
         out_dir = os.path.join(helpers.tmp_dir(), f"shots_{bpy.app.version[0]}{bpy.app.version[1]}")
