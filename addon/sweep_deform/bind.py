@@ -116,9 +116,9 @@ def skin_weights(obj, arm, bone_names, slots=SKIN_SLOTS):
     return np.ascontiguousarray(ids[:, :used]), np.ascontiguousarray(w[:, :used])
 
 
-def read_inputs(obj, arm):
-    """Stage 1: the mesh (its rest shape, object data without modifiers) and the armature's
-    rest skeleton, in the armature's space."""
+def check_bindable(obj, arm):
+    """Raises BindError saying why `obj` cannot get a binding to `arm` now (not a mesh, in
+    Edit Mode, linked, unusable transforms, a mesh shared with other objects)."""
     if obj.type != 'MESH':
         raise BindError(f"'{obj.name}' is not a mesh")
     if obj.mode == 'EDIT':
@@ -133,6 +133,13 @@ def read_inputs(obj, arm):
     if mesh.users > 1:
         raise BindError(f"The mesh '{mesh.name}' is used by {mesh.users} objects; the offsets live in "
                         "the mesh, so make it single user first (Object > Relations > Make Single User)")
+
+
+def read_inputs(obj, arm):
+    """Stage 1: the mesh (its rest shape, object data without modifiers) and the armature's
+    rest skeleton, in the armature's space."""
+    check_bindable(obj, arm)
+    mesh = obj.data
     if len(mesh.vertices) < 3 or len(mesh.polygons) < 1:
         raise BindError(f"'{obj.name}' has no faces to bind")
     inp = BindInputs()

@@ -30,18 +30,11 @@ def check_source(source):
 
 
 def check_target(target, source):
-    """A mesh object that may receive a binding: raises BindError saying why not."""
-    if target.type != 'MESH':
-        raise bind.BindError(f"'{target.name}' is not a mesh")
+    """A mesh object that may receive a binding through `source`'s map: raises BindError
+    saying why not (as for any binding, plus: not the source itself, at least one vertex)."""
+    bind.check_bindable(target, source.sweep_deform.armature)
     if target == source or target.data == source.data:
         raise bind.BindError(f"'{target.name}' is the bound character itself")
-    if target.library is not None or target.data.library is not None:
-        raise bind.BindError(f"'{target.name}' is linked from another file and cannot be changed here")
-    if target.mode == 'EDIT':
-        raise bind.BindError(f"'{target.name}' is in Edit Mode: leave it first")
-    if target.data.users > 1:
-        raise bind.BindError(f"The mesh '{target.data.name}' is used by {target.data.users} objects; "
-                             "make it single user first (Object > Relations > Make Single User)")
     if len(target.data.vertices) == 0:
         raise bind.BindError(f"'{target.name}' has no vertices")
 
