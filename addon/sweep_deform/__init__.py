@@ -4,18 +4,20 @@
 Layers (dependencies point down):
 
     operators, panel, handlers, properties      Blender glue (bpy)
+    bake                                        bake to shape keys, PC2/MDD (cache_files), Alembic
     gizmos, overlay                             key-ellipse editing in the viewport (Sect. 4.2)
     key_edit                                    numpy only: corrections, gizmo math, picking
     bind, runtime, persistence, modifier        Blender glue: binding, one frame, the .blend
-    rig_io                                      numpy only: arrays between Blender and the core
+    rig_io, cache_files                         numpy only: arrays between Blender and the core,
+                                                point-cache files
     native                                      ctypes binding of libsweepdeform (lib/)
 
 See docs/addon.md in the repository for how the modifier works and what it costs per frame.
 """
 
-from . import gizmos, handlers, operators, overlay, panel, persistence, properties
+from . import bake, gizmos, handlers, operators, overlay, panel, persistence, properties
 
-_modules = (properties, operators, gizmos, panel, handlers, persistence, overlay)
+_modules = (properties, operators, bake, gizmos, panel, handlers, persistence, overlay)
 
 
 def register():
