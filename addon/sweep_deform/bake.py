@@ -100,6 +100,9 @@ def mesh_positions(obj, depsgraph, out):
     """Evaluated vertex positions of `obj` (object space) into `out` ((V,3) float32).
     BakeError if the evaluated mesh has another vertex count."""
     ev = obj.evaluated_get(depsgraph)
+    if not ev.is_evaluated:  # not in the depsgraph: to_mesh() would give the rest mesh
+        raise BakeError(f"'{obj.name}' is not evaluated in the viewport: enable it in viewports "
+                        "(and its collection) for the bake")
     me = ev.to_mesh()
     try:
         if len(me.vertices) != len(out):

@@ -366,6 +366,10 @@ def test_errors_change_nothing():
 
     refused("last frame .* before the first", target='PC2', filepath=path, frame_start=10, frame_end=5)
     refused("does not exist", target='PC2', filepath=os.path.join(path, "no_folder", "x.pc2"))
+    obj.hide_viewport = True  # not evaluated: its evaluated mesh would be the rest mesh
+    refused("not evaluated in the viewport", target='PC2', filepath=path)
+    refused("not evaluated in the viewport", target='SHAPE_KEYS')
+    obj.hide_viewport = False
     bpy.ops.object.sweep_deform_unbind()
     refused("not bound", target='SHAPE_KEYS')
     refused("not bound", target='PC2', filepath=path)
