@@ -516,14 +516,4 @@ class OBJECT_OT_sweep_deform_bake(bpy.types.Operator):
         self._end_modal(context)
 
 
-classes = (OBJECT_OT_sweep_deform_bake,)
-
-
-def register():
-    for cls in classes:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(classes):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory((OBJECT_OT_sweep_deform_bake,))

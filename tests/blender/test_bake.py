@@ -5,9 +5,6 @@ played back by objects *without* the Sweep Deform modifier (the baked copy's sha
 Blender's Mesh Cache modifier on a copy of the rest mesh, an Alembic import), equals the
 modifier's output frame by frame. Cancel leaves nothing behind; bad input changes nothing."""
 
-import ast
-import inspect
-import json
 import os
 import shutil
 import subprocess
@@ -87,13 +84,6 @@ def out_path(name):
 
 
 # ---- the file formats (numpy only) -------------------------------------------------------------
-
-
-def test_cache_files_imports_no_bpy():
-    tree = ast.parse(inspect.getsource(cache_files))
-    imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
-                for a in n.names} | {(n.module or "").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
-    assert "bpy" not in imported and "mathutils" not in imported
 
 
 def test_pc2_and_mdd_layout_byte_by_byte():
@@ -381,119 +371,15 @@ def test_errors_change_nothing():
 
 # ---- the interface: modal, progress, Esc -------------------------------------------------------
 
-GUI_SCRIPT = r'''
-import bpy, json, os, sys
-sys.path.insert(0, {here!r})
-bpy.ops.preferences.addon_enable(module="bl_ext.user_default.sweep_deform")
-import helpers
-OUT = {out!r}
-result = {{}}
-
-def done(error=None):
-    if error:
-        result["error"] = error
-    print("RESULT " + json.dumps(result), flush=True)
-    os._exit(0)
-
-def guarded(fn):
-    def run():
-        try:
-            return fn()
-        except Exception:
-            import traceback
-            done(traceback.format_exc())
-    return run
-
-def window():
-    return bpy.context.window_manager.windows[0]
-
-@guarded
-def start():
-    char = helpers.Character("fixture", "Body", "Armature", [], [], helpers.bone_rig.FIXTURE_CHAINS)
-    helpers.use_test_rig([char])
-    with bpy.context.temp_override(window=window()):
-        bpy.context.view_layer.objects.active = char.mesh
-        result["bind"] = list(bpy.ops.object.sweep_deform_add('EXEC_DEFAULT'))
-        bpy.context.scene.frame_set(3)
-        # From the interface with a path given: no file browser, modal at once.
-        result["invoke_pc2"] = list(bpy.ops.object.sweep_deform_bake('INVOKE_DEFAULT', target='PC2',
-            filepath=os.path.join(OUT, "gui.pc2"), frame_start=70, frame_end=75))
-    bpy.app.timers.register(wait_pc2, first_interval=0.5)
-
-@guarded
-def wait_pc2():
-    if not os.path.exists(os.path.join(OUT, "gui.pc2")):
-        return 0.2
-    result["pc2_samples"] = helpers.sub("cache_files").read_pc2(os.path.join(OUT, "gui.pc2"))[2].shape[0]
-    result["frame_after"] = bpy.context.scene.frame_current
-    with bpy.context.temp_override(window=window()):
-        # The whole timeline, one frame per tick; Esc once some frames are in the file.
-        result["invoke_long"] = list(bpy.ops.object.sweep_deform_bake('INVOKE_DEFAULT', target='MDD',
-            filepath=os.path.join(OUT, "gui_cancel.mdd"), frame_start=1, frame_end=240))
-    bpy.app.timers.register(press_esc_mdd, first_interval=0.3)
-
-@guarded
-def press_esc_mdd():
-    partial = os.path.join(OUT, "gui_cancel.mdd.partial")
-    if not os.path.exists(partial) or os.path.getsize(partial) < 8 + 4 * 240 + 3 * 12 * 4714:
-        return 0.05
-    result["partial_seen"] = True
-    window().event_simulate(type='ESC', value='PRESS')
-    window().event_simulate(type='ESC', value='RELEASE')
-    bpy.app.timers.register(after_mdd_cancel, first_interval=0.5)
-
-@guarded
-def after_mdd_cancel():
-    result["mdd_left"] = sorted(f for f in os.listdir(OUT) if f.startswith("gui_cancel"))
-    result["frame_after_cancel"] = bpy.context.scene.frame_current
-    with bpy.context.temp_override(window=window()):
-        # Shape keys as the interface runs them after the frame-range dialog.
-        result["keys_modal"] = list(bpy.ops.object.sweep_deform_bake('EXEC_DEFAULT', target='SHAPE_KEYS',
-            frame_start=1, frame_end=240, run_modal=True))
-    bpy.app.timers.register(press_esc_keys, first_interval=0.3)
-
-@guarded
-def press_esc_keys():
-    baked = bpy.data.objects.get("Body_baked")
-    if baked is None or baked.data.shape_keys is None or len(baked.data.shape_keys.key_blocks) < 4:
-        return 0.05
-    window().event_simulate(type='ESC', value='PRESS')
-    window().event_simulate(type='ESC', value='RELEASE')
-    bpy.app.timers.register(after_keys_cancel, first_interval=0.5)
-
-@guarded
-def after_keys_cancel():
-    result["objects"] = sorted(bpy.data.objects.keys())
-    result["meshes"] = sorted(bpy.data.meshes.keys())
-    body = bpy.data.objects["Body"]
-    result["stack"] = [(m.type, m.show_viewport) for m in body.modifiers]
-    done()
-
-bpy.app.timers.register(start, first_interval=0.2)
-'''
-
-
 def test_modal_bake_in_the_interface_and_esc():
-    """A Blender with its interface under Xvfb: a bake invoked from the interface runs modal
-    and writes its file; Esc during an MDD bake and during a shape-key bake leaves no partial
-    file, no object, the frame and the stack as they were."""
+    """A Blender with its interface under Xvfb (gui_bake.py): a bake invoked from the interface
+    runs modal and writes its file; Esc during an MDD and during a shape-key bake leaves no
+    partial file, no object, the frame and the stack as they were."""
     helpers.require("fixture")
-    xvfb = shutil.which("xvfb-run")
-    if xvfb is None:
-        pytest.skip("xvfb-run not found")
-    out = os.path.join(helpers.tmp_dir(), "gui_bake")
-    shutil.rmtree(out, ignore_errors=True)
-    os.makedirs(out)
-    script = os.path.join(helpers.tmp_dir(), "gui_bake.py")
-    with open(script, "w") as f:
-        f.write(GUI_SCRIPT.format(here=helpers.HERE, out=out))
-    cmd = [xvfb, "-a", "-s", "-screen 0 1024x768x24", bpy.app.binary_path, "--factory-startup",
-           "--enable-event-simulate", helpers._fixture_path(), "--python", script]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
-    lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
-    assert lines, proc.stdout[-3000:] + proc.stderr[-3000:]
-    out = json.loads(lines[-1][len("RESULT "):])
-    assert "error" not in out, out["error"]
+    out_dir = os.path.join(helpers.tmp_dir(), "gui_bake")
+    shutil.rmtree(out_dir, ignore_errors=True)
+    os.makedirs(out_dir)
+    out, log = helpers.run_gui_blender(helpers._fixture_path(), os.path.join(helpers.HERE, "gui_bake.py"), [out_dir])
     assert out["bind"] == ["FINISHED"]
     assert out["invoke_pc2"] == ["RUNNING_MODAL"]
     assert out["pc2_samples"] == 6 and out["frame_after"] == 3
@@ -501,6 +387,5 @@ def test_modal_bake_in_the_interface_and_esc():
     assert out["mdd_left"] == [] and out["frame_after_cancel"] == 3
     assert out["keys_modal"] == ["RUNNING_MODAL"]
     assert "Body_baked" not in out["objects"] and not any("_baked" in m for m in out["meshes"])
-    assert out["stack"] == [["NODES", True], ["ARMATURE", False]]
-    log = proc.stdout + proc.stderr
+    assert out["stack"] == [["NODES", True], ["ARMATURE", False]] and out["frame_at_end"] == 3
     assert "Traceback" not in log, log[-3000:]
