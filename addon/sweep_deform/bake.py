@@ -329,8 +329,11 @@ def export_alembic(context, obj, path, frames):
             o.select_set(False)
         obj.select_set(True)
         view_layer.objects.active = obj
-        result = bpy.ops.wm.alembic_export(filepath=partial, start=frames[0], end=frames[-1], selected=True,
-                                           as_background_job=False, init_scene_frame_range=False)
+        try:
+            result = bpy.ops.wm.alembic_export(filepath=partial, start=frames[0], end=frames[-1], selected=True,
+                                               as_background_job=False, init_scene_frame_range=False)
+        except RuntimeError as e:  # the exporter's own error report
+            raise BakeError(f"Blender's Alembic exporter: {e}") from e
         if result != {'FINISHED'} or not os.path.isfile(partial):
             raise BakeError(f"Blender's Alembic exporter did not write the file ({', '.join(result)})")
         os.replace(partial, path)
