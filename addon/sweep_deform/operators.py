@@ -366,6 +366,8 @@ class VIEW3D_MT_sweep_deform(bpy.types.Menu):
         layout.operator(OBJECT_OT_sweep_deform_unbind.bl_idname)
         layout.separator()
         layout.operator(OBJECT_OT_sweep_deform_edit_keys.bl_idname, icon='MESH_CIRCLE')
+        layout.separator()
+        layout.operator_menu_enum("object.sweep_deform_bake", "target", text="Bake", icon='FILE_CACHE')
 
 
 def _object_menu(self, context):

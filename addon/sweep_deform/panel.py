@@ -72,6 +72,8 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
                      text="Bind" if s.state == 'UNBOUND' else "Bind Again", icon='LINKED')
         if s.state != 'UNBOUND':
             row.operator(operators.OBJECT_OT_sweep_deform_unbind.bl_idname, text="Unbind", icon='UNLINKED')
+        if s.state == 'BOUND':
+            layout.operator_menu_enum("object.sweep_deform_bake", "target", text="Bake", icon='FILE_CACHE')
 
         if not context.scene.render.use_lock_interface:
             hint = layout.row()

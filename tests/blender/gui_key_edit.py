@@ -15,7 +15,6 @@ the gizmos need a viewport):
    where the key ellipses project (the test looks for the overlay's colour there).
 """
 
-import json
 import os
 import subprocess
 import sys
@@ -33,23 +32,7 @@ bpy.ops.preferences.addon_enable(module="bl_ext.user_default.sweep_deform")
 import numpy as np  # noqa: E402
 
 import helpers  # noqa: E402
-
-out = {}
-
-
-def finish():
-    print("RESULT " + json.dumps(out), flush=True)
-    os._exit(0)
-
-
-def guarded(fn):
-    def run():
-        try:
-            return fn()
-        except Exception:
-            out["error"] = traceback.format_exc()
-            finish()
-    return run
+from gui_support import finish, guarded, result as out  # noqa: E402
 
 
 def window_and_view():

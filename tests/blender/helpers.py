@@ -1,7 +1,10 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Characters, poses and measurements shared by the Blender tests."""
 
+import json
 import os
+import shutil
+import subprocess
 
 import bpy
 import numpy as np
@@ -235,3 +238,24 @@ def armature_modifier_positions(obj):
 
 def diagonal(points):
     return float(np.linalg.norm(points.max(axis=0) - points.min(axis=0)))
+
+
+# ---- a Blender with its interface ------------------------------------------------------------
+
+
+def run_gui_blender(blend, script, args=(), screen=(1024, 768), options=(), timeout=240):
+    """Runs a Blender with its interface under Xvfb (skips the test without xvfb-run): opens
+    `blend`, runs `script` with `args` after "--"; the script prints ``RESULT {json}`` and
+    exits (gui_support.py). Returns (the result, the log); fails the test when no result came
+    or the script reported an "error"."""
+    xvfb = shutil.which("xvfb-run")
+    if xvfb is None:
+        pytest.skip("xvfb-run not found")
+    cmd = [xvfb, "-a", "-s", f"-screen 0 {screen[0]}x{screen[1]}x24", bpy.app.binary_path, "--factory-startup",
+           *options, "--enable-event-simulate", blend, "--python", script, "--", *args]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+    lines = [line for line in proc.stdout.splitlines() if line.startswith("RESULT ")]
+    assert lines, proc.stdout[-3000:] + proc.stderr[-3000:]
+    out = json.loads(lines[-1][len("RESULT "):])
+    assert "error" not in out, out["error"]
+    return out, proc.stdout + proc.stderr

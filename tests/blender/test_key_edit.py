@@ -6,11 +6,8 @@ shifts every pose; the mesh is what the core computes with the same corrections;
 delete, keyframes; save and reload keep the edits; and, in a GUI Blender under Xvfb, undo
 and redo restore them exactly and the overlay and gizmos are drawn (screenshots)."""
 
-import json
 import math
 import os
-import shutil
-import subprocess
 import struct
 import zlib
 
@@ -404,23 +401,14 @@ def test_undo_and_the_overlay_in_the_interface():
     replace docs/images/edit_*.png (the user guide's, docs/editing.md), so a test run never
     changes the source tree unasked."""
     helpers.require("fixture")
-    xvfb = shutil.which("xvfb-run")
-    if xvfb is None:
-        pytest.skip("xvfb-run not found")
     if bpy.app.version[:2] >= (5, 2) and os.environ.get("SWEEPDEFORM_WRITE_DOC_IMAGES") == "1":
         out_dir = os.path.join(helpers.REPO, "docs", "images")
     else:
         out_dir = os.path.join(helpers.tmp_dir(), f"shots_{bpy.app.version[0]}{bpy.app.version[1]}")
     os.makedirs(out_dir, exist_ok=True)
     blend = os.path.join(helpers.FIXTURES, "character_light.blend")
-    cmd = [xvfb, "-a", "-s", "-screen 0 1280x720x24", bpy.app.binary_path, "--factory-startup",
-           "-p", "0", "0", "1280", "720", "--enable-event-simulate", blend,
-           "--python", os.path.join(helpers.HERE, "gui_key_edit.py"), "--", out_dir]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
-    lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
-    assert lines, proc.stdout[-3000:] + proc.stderr[-3000:]
-    out = json.loads(lines[-1][len("RESULT "):])
-    assert "error" not in out, out["error"]
+    out, log = helpers.run_gui_blender(blend, os.path.join(helpers.HERE, "gui_key_edit.py"), [out_dir],
+                                       screen=(1280, 720), options=("-p", "0", "0", "1280", "720"))
     assert out["bind"] == ["FINISHED"] and out["edit_keys"] == ["FINISHED"] and out["select"] == ["FINISHED"]
     assert out["tool"] == "sweep_deform.edit_key_ellipses"
     assert out["gizmos_poll"]
@@ -450,5 +438,4 @@ def test_undo_and_the_overlay_in_the_interface():
         assert len(g["points"]) > 200
         assert share > 0.7, share
         assert cyan_share < 0.1
-    log = proc.stdout + proc.stderr
     assert "Traceback" not in log and "Sweep Deform overlay" not in log, log[-3000:]

@@ -2,11 +2,7 @@
 """What the .blend keeps: save, reload, deform exactly as before; damaged or outdated data
 shows "re-bind needed" instead of a wrong deformation; undo after bind."""
 
-import json
 import os
-import shutil
-import subprocess
-import sys
 
 import bpy
 import numpy as np
@@ -163,19 +159,11 @@ def test_undo_after_bind_in_the_interface():
     (bound, deforming); then binds as the interface does (modal, with progress) and cancels a
     bind with Esc."""
     helpers.require("makehuman")
-    xvfb = shutil.which("xvfb-run")
-    if xvfb is None:
-        pytest.skip("xvfb-run not found")
     script = os.path.join(helpers.tmp_dir(), "gui_undo.py")
     with open(script, "w") as f:
         f.write(GUI_SCRIPT.format(here=helpers.HERE))
-    cmd = [xvfb, "-a", "-s", "-screen 0 1024x768x24", bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
-           os.path.join(helpers.SHARED, "mh_male_game_engine.blend"), "--python", script]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=180)
-    lines = [l for l in proc.stdout.splitlines() if l.startswith("RESULT ")]
-    assert lines, proc.stdout[-3000:] + proc.stderr[-3000:]
-    out = json.loads(lines[-1][len("RESULT "):])
-    assert "error" not in out, out["error"]
+    out, log = helpers.run_gui_blender(os.path.join(helpers.SHARED, "mh_male_game_engine.blend"), script,
+                                       timeout=180)
     assert out["add"] == ["FINISHED"]
     assert out["bound"] == ["BOUND", [["Sweep Deform", True], ["Armature", False]]]
     assert out["undone"] == ["UNBOUND", [["Armature", True]], False]
@@ -189,5 +177,4 @@ def test_undo_after_bind_in_the_interface():
     assert out["cancelled"] == ["UNBOUND", [["Sweep Deform", True], ["Armature", True]]]
     # The panels drew without a Python error.
     assert out["volumes_drawn"]
-    log = proc.stdout + proc.stderr
     assert "OBJECT_PT_sweep_deform" not in log and "Traceback" not in log, log[-3000:]

@@ -5,14 +5,16 @@ import ast
 import inspect
 
 import numpy as np
+import pytest
 
 import helpers
 
 rig_io = helpers.sub("rig_io")
 
 
-def test_imports_no_bpy():
-    tree = ast.parse(inspect.getsource(rig_io))
+@pytest.mark.parametrize("name", ["rig_io", "cache_files"])
+def test_numpy_layer_imports_no_bpy(name):
+    tree = ast.parse(inspect.getsource(helpers.sub(name)))
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
                 for a in n.names} | {(n.module or "").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     assert "bpy" not in imported and "mathutils" not in imported
