@@ -23,6 +23,9 @@ constexpr int kPlanePasses = 2, kRelaxPasses = 4;
 // Volume feedback: share of the change of I_C passed on per frame, and the largest offset
 // (share of the sweep's rest volume).
 constexpr double kFeedbackGain = 0.6, kMaxOffset = 0.15;
+// The restoration trims the push when the skin's volume is off by more than this share of its
+// rest volume.
+constexpr double kTrimTolerance = 0.002;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 bool any_effect(const JointSettings& s) { return s.folding || s.protrusion || s.bulge; }
@@ -154,6 +157,10 @@ double Anatomy::restore_trim(const SkeletonPose& pose, float* p) {
             z.height = 0.0;
             continue;
         }
+        const double deficit = sweep_region_rest_[s] - sweep_regions_[s].volume(p);
+        // A deficit this small is left (to the next frame's push): trimming it would cost a
+        // re-check of the zone's skin for nothing visible.
+        if (std::abs(deficit) < kTrimTolerance * sweep_region_rest_[s]) continue;
         // The volume one unit of push adds to the skin as it is now (first order: each
         // vertex's share of its triangles' area vectors along its push).
         zone_directions(static_cast<int>(s), pose);
@@ -168,7 +175,6 @@ double Anatomy::restore_trim(const SkeletonPose& pose, float* p) {
             rate += static_cast<double>(z.weight[i]) * glm::dot(area, zone_radial_[i]) / 6.0;
         }
         if (!(rate > 0.0)) continue;
-        const double deficit = sweep_region_rest_[s] - sweep_regions_[s].volume(p);
         const double height = std::clamp(z.height + deficit / rate, -z.limit, z.limit);
         const double dh = height - z.height;
         z.height = height;  // where the next frame's push starts
