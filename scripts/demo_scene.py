@@ -33,6 +33,7 @@ from mathutils import Vector
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "tests", "blender"))
 import install  # noqa: E402  (the tests' installer: the same path a user takes)
+import limb_volume  # noqa: E402  (closed volume of a skin region, numpy only)
 
 METHODS = [
     ("armature", "Armature modifier"),
@@ -303,36 +304,11 @@ def limb_regions(body, chains):
     return regions
 
 
-def posed_segments(arm, body, bone_names):
-    """Bone (head, tail) pairs in the body's object space, posed."""
-    to_body = body.matrix_world.inverted() @ arm.matrix_world
-    segs = []
-    for n in bone_names:
-        pb = arm.pose.bones.get(n)
-        if pb is not None:
-            segs.append((np.array(to_body @ pb.head), np.array(to_body @ pb.tail)))
-    return segs
-
-
-def region_volume(pos, tris, vertex_mask, segments):
-    """Volume between a limb's skin and its bones: Σ signed tetrahedra (apex = the nearest
-    point on the limb's bones to each triangle's centroid) over the triangles of the region.
-    Exact for a tube around a straight bone; its change measures how much flesh a method
-    gains or loses as the limb bends."""
-    t = tris[vertex_mask[tris].all(axis=1)]
-    if len(t) == 0 or not segments:
-        return 0.0
-    a, b, c = pos[t[:, 0]], pos[t[:, 1]], pos[t[:, 2]]
-    centroid = (a + b + c) / 3
-    best_d, apex = np.full(len(t), np.inf), np.zeros_like(centroid)
-    for h, e in segments:
-        d = e - h
-        s = np.clip(((centroid - h) @ d) / max(d @ d, 1e-20), 0, 1)
-        p = h + s[:, None] * d
-        dist = np.linalg.norm(centroid - p, axis=1)
-        closer = dist < best_d
-        best_d[closer], apex[closer] = dist[closer], p[closer]
-    return float(np.einsum("ij,ij->i", a - apex, np.cross(b - apex, c - apex)).sum() / 6.0)
+def limb_volumes(regions, tris):
+    """Per chain: its region's triangles (all three vertices in it) as a limb_volume.ClosedRegion,
+    whose volume (the region closed by a cap over each of its rings) is the chain's volume."""
+    return {name: limb_volume.ClosedRegion(tris, np.flatnonzero(mask[tris].all(axis=1)))
+            for name, mask in regions.items()}
 
 
 def joints(arm, body, chains):
@@ -373,7 +349,7 @@ def forearm_planes(arm, body, chains, fractions=(0.35, 0.5, 0.65, 0.8, 0.9)):
     return np.array(pts, np.float32).reshape(-1, 3), np.array(nrm, np.float32).reshape(-1, 3)
 
 
-def measure(columns, chains, tris, native, regions, height):
+def measure(columns, chains, tris, native, limbs, height):
     """Figures of every method at the current frame."""
     dg = bpy.context.evaluated_depsgraph_get()
     out = {}
@@ -381,9 +357,7 @@ def measure(columns, chains, tris, native, regions, height):
         arm, body = col["arm"], col["body"]
         pos = evaluated_positions(body, dg)
         fig = {"body_volume": native.measure_volume(pos, tris)}
-        fig["limb_volumes"] = {
-            c["name"]: region_volume(pos, tris, regions[c["name"]], posed_segments(arm, body, c["bone_names"]))
-            for c in chains}
+        fig["limb_volumes"] = {name: limb.volume(pos) for name, limb in limbs.items()}
         centroids = pos[tris].mean(axis=1)
         fig["intersections"] = {}
         for name, (p, r) in joints(arm, body, chains).items():
@@ -459,7 +433,8 @@ def write_report(out_dir, info, poses, timing, timing_frames):
              f"{info['vertices']} vertices, {info['triangles']} triangles, Blender {bpy.app.version_string}. "
              "Volumes and cross-sections are relative to the same method at the rest pose; "
              "intersecting pairs are pairs of skin triangles near the joint that cross each other "
-             "(exact test). Limb volume: the flesh between the skin of the limb's region and its bones.", "",
+             "(exact test). Limb volume: the skin of the limb's region (vertices whose heaviest weight is one of "
+             "its bones) closed by a cap over each ring where it meets the rest of the body.", "",
              "## Time per frame (pose change to evaluated mesh)", "",
              f"Median of 5 alternating rounds over {timing_frames} frames of the clip, with only that "
              "method's body in the scene; \"armature only\" is the same with no body (armature "
@@ -507,7 +482,7 @@ def main():
     if not chains:
         sys.exit("demo: the fitting found no chains; see the Sweep Deform panel's message")
     tris = rest_triangles(body.data)
-    regions = limb_regions(body, chains)
+    limbs = limb_volumes(limb_regions(body, chains), tris)
     print(f"demo: {len(body.data.vertices)} vertices, chains {[c['name'] for c in chains]}", flush=True)
 
     setup_render(scene, 500 * len(columns), 720)
@@ -522,10 +497,10 @@ def main():
     for name, frame in poses:
         scene.frame_set(frame)
         bpy.context.view_layer.update()
-        figs = measure(columns, chains, tris, native, regions, height)
+        figs = measure(columns, chains, tris, native, limbs, height)
         if rest_figs is None:
             scene.frame_set(rest_frame)
-            rest_figs = measure(columns, chains, tris, native, regions, height)
+            rest_figs = measure(columns, chains, tris, native, limbs, height)
             scene.frame_set(frame)
         report_poses.append({"name": name, "frame": frame, "methods": relative(figs, rest_figs)})
         front_camera(scene, full_lo, full_hi)

@@ -63,8 +63,9 @@ CESIUM_CHAINS = [
 ]
 
 
-def _fixture_path():
-    for name in ("character_light.blend", "character.blend"):
+def _fixture_path(full=False):
+    """The built-in character: the light mesh (4.7K vertices) unless `full` (75K vertices)."""
+    for name in (("character.blend",) if full else ("character_light.blend", "character.blend")):
         p = os.path.join(FIXTURES, name)
         if os.path.isfile(p):
             return p
@@ -75,8 +76,8 @@ CHARACTERS = ["fixture", "makehuman", "cesium"]
 
 
 def available(key):
-    if key == "fixture":
-        return _fixture_path() is not None
+    if key in ("fixture", "fixture_full"):
+        return _fixture_path(key == "fixture_full") is not None
     if key == "makehuman":
         return os.path.isfile(os.path.join(SHARED, "mh_male_game_engine.blend"))
     if key == "cesium":
@@ -86,15 +87,16 @@ def available(key):
 
 def require(key):
     if not available(key):
-        where = {"fixture": FIXTURES + "/character*.blend"}.get(key, SHARED)
+        where = {"fixture": FIXTURES + "/character*.blend", "fixture_full": FIXTURES + "/character.blend"}.get(key, SHARED)
         pytest.skip(f"character '{key}' not available ({where} missing)")
 
 
 def load(key):
-    """Opens the character in a fresh file and returns a Character."""
+    """Opens the character in a fresh file and returns a Character ("fixture": the built-in one,
+    light; "fixture_full": the built-in one at 75K vertices)."""
     require(key)
-    if key == "fixture":
-        bpy.ops.wm.open_mainfile(filepath=_fixture_path())
+    if key in ("fixture", "fixture_full"):
+        bpy.ops.wm.open_mainfile(filepath=_fixture_path(key == "fixture_full"))
         return Character(key, "Body", "Armature", ["forearm.L", "forearm.R"], ["shin.L", "shin.R"],
                          bone_rig.FIXTURE_CHAINS, ["upper_arm.L", "upper_arm.R"])
     if key == "makehuman":

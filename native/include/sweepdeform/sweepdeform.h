@@ -417,7 +417,7 @@ SD_API sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint,
  * 2: two passes per frame, the second with the first's I_C and restoration (results depend
  * on the pose only). restore != 0 (default): the skin of each sweep that owns an elbow or a
  * knee is held at its rest mesh volume by a smooth outward push around the joint on its
- * extensor half, its height following the measured deficit from frame to frame (what the
+ * extensor half, trimmed after folding in every frame by the measured deficit (what the
  * sweep integral cannot see: the displacement map's own volume change at deep bends, volume
  * the controller puts elsewhere); folding's loss then stays out of I_C.
  */

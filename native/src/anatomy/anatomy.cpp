@@ -21,9 +21,11 @@ using Clock = std::chrono::steady_clock;
 constexpr int kPlanePasses = 2, kRelaxPasses = 4;
 
 // Volume feedback: share of the change of I_C passed on per frame, and the largest offset
-// (share of the sweep's rest volume); the restoration's share of the deficit corrected per
-// frame.
-constexpr double kFeedbackGain = 0.6, kMaxOffset = 0.15, kRestoreGain = 0.5;
+// (share of the sweep's rest volume).
+constexpr double kFeedbackGain = 0.6, kMaxOffset = 0.15;
+// The restoration trims the push when the skin's volume is off by more than this share of its
+// rest volume.
+constexpr double kTrimTolerance = 0.002;
 double ms_since(Clock::time_point t) { return std::chrono::duration<double, std::milli>(Clock::now() - t).count(); }
 
 bool any_effect(const JointSettings& s) { return s.folding || s.protrusion || s.bulge; }
@@ -136,27 +138,18 @@ void Anatomy::build_restore_zone(int j) {
 
 double Anatomy::restore_push(const SkeletonPose& pose, float* p) {
     double added = 0.0;
-    std::vector<dvec3> centers;
-    std::vector<dquat> rotations;
     for (size_t s = 0; s < restore_zones_.size(); ++s) {
         RestoreZone& z = restore_zones_[s];
         if (z.vertex.empty() || z.height == 0.0 || !any_effect(joints_[z.joint].settings)) continue;
-        pose_keys(rig_.sweeps[s], pose, centers, rotations);
-        const SweepGeometry g(centers, rotations);
-        for (size_t i = 0; i < z.vertex.size(); ++i) {
-            const dvec3 radial = rotate_unnormalized(g.raw_rotation(z.span[i], z.u[i]),
-                                                     dvec3(z.dir[2 * i], z.dir[2 * i + 1], 0.0));
-            const dvec3 delta = z.height * static_cast<double>(z.weight[i]) * radial;
-            const int32_t v = z.vertex[i];
-            edits_.touch(v, p, z.joint);
-            for (int k = 0; k < 3; ++k) p[3 * static_cast<size_t>(v) + k] += static_cast<float>(delta[k]);
-        }
+        zone_directions(static_cast<int>(s), pose);
+        push_zone(z, z.height, p, nullptr);
         added += z.height * z.rate;
     }
     return added;
 }
 
-void Anatomy::restore_update(const float* p) {
+double Anatomy::restore_trim(const SkeletonPose& pose, float* p) {
+    double added = 0.0;
     for (size_t s = 0; s < restore_zones_.size(); ++s) {
         RestoreZone& z = restore_zones_[s];
         if (z.vertex.empty() || !(z.rate > 0.0)) continue;
@@ -164,10 +157,50 @@ void Anatomy::restore_update(const float* p) {
             z.height = 0.0;
             continue;
         }
-        // Integral control of the skin's volume: the push height grows by the deficit over
-        // the (rest pose) volume per unit of push.
         const double deficit = sweep_region_rest_[s] - sweep_regions_[s].volume(p);
-        z.height = std::clamp(z.height + restore_gain_ * deficit / z.rate, -z.limit, z.limit);
+        // A deficit this small is left (to the next frame's push): trimming it would cost a
+        // re-check of the zone's skin for nothing visible.
+        if (std::abs(deficit) < kTrimTolerance * sweep_region_rest_[s]) continue;
+        // The volume one unit of push adds to the skin as it is now (first order: each
+        // vertex's share of its triangles' area vectors along its push).
+        zone_directions(static_cast<int>(s), pose);
+        double rate = 0.0;
+        for (size_t i = 0; i < z.vertex.size(); ++i) {
+            const int32_t v = z.vertex[i];
+            dvec3 area(0.0);
+            for (uint32_t k = mesh_.vertex_triangle_offsets[v]; k < mesh_.vertex_triangle_offsets[v + 1]; ++k) {
+                const int32_t* tv = mesh_.triangle(mesh_.vertex_triangles[k]);
+                area += glm::cross(point(p, tv[1]) - point(p, tv[0]), point(p, tv[2]) - point(p, tv[0]));
+            }
+            rate += static_cast<double>(z.weight[i]) * glm::dot(area, zone_radial_[i]) / 6.0;
+        }
+        if (!(rate > 0.0)) continue;
+        const double height = std::clamp(z.height + deficit / rate, -z.limit, z.limit);
+        const double dh = height - z.height;
+        z.height = height;  // where the next frame's push starts
+        if (dh == 0.0) continue;
+        push_zone(z, dh, p, &moved_);
+        added += dh * rate;
+    }
+    return added;
+}
+
+void Anatomy::zone_directions(int s, const SkeletonPose& pose) {
+    const RestoreZone& z = restore_zones_[s];
+    pose_keys(rig_.sweeps[s], pose, zone_centers_, zone_rotations_);
+    const SweepGeometry g(zone_centers_, zone_rotations_);
+    zone_radial_.resize(z.vertex.size());
+    for (size_t i = 0; i < z.vertex.size(); ++i)
+        zone_radial_[i] = rotate_unnormalized(g.raw_rotation(z.span[i], z.u[i]), dvec3(z.dir[2 * i], z.dir[2 * i + 1], 0.0));
+}
+
+void Anatomy::push_zone(const RestoreZone& z, double height, float* p, std::vector<int32_t>* moved) {
+    for (size_t i = 0; i < z.vertex.size(); ++i) {
+        const dvec3 delta = height * static_cast<double>(z.weight[i]) * zone_radial_[i];
+        const int32_t v = z.vertex[i];
+        edits_.touch(v, p, z.joint);
+        if (moved) moved->push_back(v);
+        for (int k = 0; k < 3; ++k) p[3 * static_cast<size_t>(v) + k] += static_cast<float>(delta[k]);
     }
 }
 
@@ -573,13 +606,14 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
         }
         stats_.ms_collision += ms_since(tc);
     };
-    while (!pairs_.empty() && stats_.folding_iterations < folding_iterations_) {
+    const auto fold_until_clean = [&]() {
+        for (int pass = 0; !pairs_.empty() && pass < folding_iterations_; ++pass) {
         t = Clock::now();
         moved_.clear();
         // Contacts between parts fold against bisecting planes (the first passes); skin that
         // crumpled within one part, and whatever the planes leave, is relaxed.
         single_part_.clear();
-        if (stats_.folding_iterations < kPlanePasses) {
+        if (pass < kPlanePasses) {
             const FoldingStats fs = folding_.fold(mesh_, parts_, pairs_, reference, triangle_joint_, params, p,
                                                   edits_, falloff_, &moved_, &single_part_);
             stats_.folding_regions += fs.regions;
@@ -595,6 +629,20 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
         ++stats_.folding_iterations;
         stats_.ms_folding += ms_since(t);
         detect_changed();
+        }
+    };
+    fold_until_clean();
+    if (restore_) {
+        // The restoration's trim: the skin's volume as folding left it, corrected in this
+        // frame by the push on the extensor side; then whatever contact that makes is folded.
+        t = Clock::now();
+        moved_.clear();
+        stats_.restored_volume += restore_trim(pose, p);
+        stats_.ms_volume += ms_since(t);
+        if (!moved_.empty()) {
+            detect_changed();
+            fold_until_clean();
+        }
     }
     stats_.pairs_after = static_cast<int>(pairs_.size());
 
@@ -619,7 +667,6 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
         offsets_[s] = std::clamp(applied_[s] + kFeedbackGain * (ic - applied_[s]), -cap, cap);
     }
     for (double dv : offsets_) stats_.volume_change += dv;
-    if (restore_) restore_update(p);
     stats_.ms_volume += ms_since(t);
 }
 
@@ -635,9 +682,7 @@ void Anatomy::deform(Deformer& d, const float* pose, float* out) {
         applied_.assign(rig_.sweeps.size(), 0.0);
         d.set_volume_offsets(applied_);
     }
-    // Two passes in one frame start from nothing and correct in full: the frame depends on
-    // its pose only.
-    restore_gain_ = feedback_ == VolumeFeedback::InFrame ? 1.0 : kRestoreGain;
+    // Two passes in one frame start from nothing: the frame depends on its pose only.
     if (feedback_ == VolumeFeedback::InFrame)
         for (RestoreZone& z : restore_zones_) z.height = 0.0;
     for (int pass = 0; pass < passes; ++pass) {

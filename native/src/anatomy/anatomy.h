@@ -6,8 +6,10 @@
 //     -> collision detection in the joint regions -> skin folding: bisecting planes for
 //        contacts between parts at elbows and knees, relaxing for crumpled skin and what the
 //        planes leave, re-detecting after each pass until no intersecting pair is left
+//     -> volume restoration trim: the skin's measured volume deficit closed in this frame
+//        by the push, contacts that makes folded
 //     -> volume: I_C per sweep, fed back to the deformer (target V0 - I_C, "for the next
-//        frame"); the restoration's next push height from the skin's measured volume
+//        frame")
 //
 // Joints are added one by one (elbow, knee, or generic: shoulder, hip, neck — folding only)
 // with per-joint switches and strengths. An elbow gets an olecranon proxy and a biceps, a
@@ -91,9 +93,11 @@ public:
     /// Volume restoration (default on): the skin of each sweep that owns an elbow or a knee
     /// is held at its rest mesh volume by a smooth outward push around the joint, on the
     /// extensor half (flesh squeezed in the crease goes around it). The push is applied with
-    /// bulge and protrusion, before collision detection (folding handles what it touches);
-    /// its height follows the measured volume deficit from frame to frame (integral control,
-    /// as the paper's I_C reaches the next frame). Folding's loss then stays out of I_C. It closes what I_C and the sweep integral cannot: the
+    /// bulge and protrusion at the height the frames before left, before collision detection
+    /// (folding handles what it touches); after folding the skin's volume is measured and the
+    /// push trimmed in the same frame by what closes the deficit (then re-checked for
+    /// contacts). Folding's loss then stays out of I_C. It closes what I_C and the sweep
+    /// integral cannot: the
     /// displacement map's own volume change at deep bends (the paper assumes it constant)
     /// and the volume the controller puts where the skin is not (e.g. a shoulder key).
     void set_volume_restoration(bool on) { restore_ = on; }
@@ -134,8 +138,16 @@ private:
     void feed(Deformer& deformer);
     void build_sweep_region(int sweep);
     void build_restore_zone(int joint);
+    /// The restoration's push at each zone's height (from the frames before); the volume added.
     double restore_push(const SkeletonPose& pose, float* positions);
-    void restore_update(const float* positions);
+    /// Measures each restored sweep's skin volume and pushes its zone by what closes the
+    /// deficit (first order, from the posed skin); the zone's height keeps the sum for the
+    /// next frame. Moved vertices go to moved_. @return the volume added
+    double restore_trim(const SkeletonPose& pose, float* positions);
+    struct RestoreZone;
+    /// zone_radial_: the posed push direction of each vertex of sweep s's zone.
+    void zone_directions(int s, const SkeletonPose& pose);
+    void push_zone(const RestoreZone& z, double height, float* positions, std::vector<int32_t>* moved);
     void build_regions(int joint);
     void rebuild_collision_set();
     void add_automatic_effects(int joint);
@@ -172,7 +184,8 @@ private:
         int joint = -1;
     };
     std::vector<RestoreZone> restore_zones_;
-    double restore_gain_ = 0.5;
+    std::vector<dvec3> zone_centers_, zone_radial_;
+    std::vector<dquat> zone_rotations_;
     int folding_iterations_ = 10;
     std::vector<double> offsets_;
     std::vector<double> applied_;  // the offsets last handed to a deformer

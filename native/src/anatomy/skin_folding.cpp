@@ -27,6 +27,15 @@ int32_t triangle_part(const MeshTopology& mesh, const SkinParts& parts, int t) {
     return (b == c) ? b : a;
 }
 
+/// How far a vertex `depth` past the plane (negative: short of it) is pulled towards it: the
+/// depth itself beyond `soft`, nothing below -soft, and a quadratic blend between (C1, and never
+/// less than the depth, so every pulled vertex ends on its own side).
+double pull_depth(double depth, double soft) {
+    if (depth >= soft) return depth;
+    if (depth <= -soft) return 0.0;
+    return (depth + soft) * (depth + soft) / (4.0 * soft);
+}
+
 /// Area-weighted vertex normal at the current positions.
 dvec3 vertex_normal(const MeshTopology& mesh, const float* p, int v) {
     dvec3 n(0.0);
@@ -230,6 +239,11 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
             const dvec3 nv = vertex_normal(mesh, p, v);
             return -s * glm::dot(nv, n) > kFacing * glm::length(nv);
         };
+        // The pull is a smooth function of the depth (pull_depth), so the skin next to the
+        // contact, up to `soft` on the right side, bends onto the plane with it: pulling only the
+        // penetrating vertices leaves a staircase along the contact's edge, where a vertex just
+        // past the plane moves its full depth and its neighbour just short of it not at all.
+        const double soft = fp.limb_radius > 0.0 ? std::max(1.5 * mean_edge, 0.1 * fp.limb_radius) : 1.5 * mean_edge;
         std::vector<int32_t> queue;
         for (int32_t v : verts) {
             const int s = side_of(v);
@@ -246,7 +260,7 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
             const int s = side_of(v);
             const double dp = depth(v, s);
             sources[s > 0].push_back(v);
-            deltas[s > 0].push_back(static_cast<double>(s) * dp * n);
+            deltas[s > 0].push_back(static_cast<double>(s) * pull_depth(dp, soft) * n);
             stats.max_depth = std::max(stats.max_depth, dp - eps);
             for (uint32_t e = mesh.neighbour_offsets[v]; e < mesh.neighbour_offsets[v + 1]; ++e) {
                 const int32_t w = mesh.neighbours[e];
@@ -258,7 +272,7 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
                     if (vertex_mark_[w] != region_stamp) vertex_side_[w] = glm::dot(vertex_normal(mesh, p, w), n) > 0.0 ? -1 : 1;
                     sw = vertex_side_[w];
                 }
-                if (sw != s || !(depth(w, sw) > 0.0) || !(depth(w, sw) < deepest) ||
+                if (sw != s || !(depth(w, sw) > -soft) || !(depth(w, sw) < deepest) ||
                     !(glm::length(point(p, w) - c) < bound) || !facing(w, sw))
                     continue;
                 vertex_mark_[w] = flood_stamp;

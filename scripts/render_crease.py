@@ -1,0 +1,84 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Close-ups of the built-in character's left elbow at exactly 150° of flexion with Sweep
+Deform's anatomical effects (the folded crease), for docs/images:
+
+    blender -b --factory-startup --python scripts/render_crease.py -- --out PNG [--zip ZIP]
+            [--character FILE.blend] [--degrees 150]
+
+Binds with the automatic fitting (bpy.ops.object.sweep_deform_add), turns the effects on, poses
+the elbow with tests/blender/flexion.py and renders (Workbench) two views side by side: from the
+character's left (+X, as the demo's close-ups) and from the front, slightly from below.
+"""
+
+import argparse
+import os
+import sys
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "blender"))
+import demo_scene  # noqa: E402  (character loading, installation, render settings)
+import flexion  # noqa: E402
+import install  # noqa: E402
+
+
+def parse_args():
+    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+    p = argparse.ArgumentParser(prog="render_crease.py")
+    p.add_argument("--out", required=True)
+    p.add_argument("--zip", default=install.default_zip())
+    p.add_argument("--character", default=os.path.join(demo_scene.REPO, "blend_fixtures", "character.blend"))
+    p.add_argument("--degrees", type=float, default=150.0)
+    p.add_argument("--size", type=float, default=0.26, help="ortho scale of each view (m)")
+    return p.parse_args(argv)
+
+
+def main():
+    args = parse_args()
+    arm, body = demo_scene.load_character(os.path.abspath(args.character), "")
+    install.install(args.zip)
+    arm.animation_data.action = None
+    with bpy.context.temp_override(object=body, active_object=body, selected_objects=[body]):
+        if bpy.ops.object.sweep_deform_add(armature=arm.name) != {'FINISHED'}:
+            sys.exit(f"render_crease: binding failed: {body.sweep_deform.message}")
+    s = body.sweep_deform
+    s.use_anatomy = True
+    joint = next(j for j in s.joints if j.kind == 'ELBOW' and j.name.endswith("L"))
+    angle = flexion.flex(arm, joint.bone, joint.flexion_direction, args.degrees)
+    print(f"render_crease: {joint.bone} at {angle:.2f} degrees", flush=True)
+
+    scene = bpy.context.scene
+    demo_scene.setup_render(scene, 520, 520)
+    cam = bpy.data.objects.new("CreaseCamera", bpy.data.cameras.new("CreaseCamera"))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    cam.data.type = 'ORTHO'
+    cam.data.ortho_scale = args.size
+    cam.data.clip_end = 100.0
+    pb = arm.pose.bones[joint.bone]
+    where = np.array(arm.matrix_world @ pb.head)
+    views = [((where[0] + 10.0, where[1], where[2]), (np.pi / 2, 0.0, np.pi / 2)),           # from +X
+             ((where[0], where[1] - 10.0, where[2] - 3.0), (np.radians(106.7), 0.0, 0.0))]   # front, below
+    tiles = []
+    for i, (loc, rot) in enumerate(views):
+        cam.location, cam.rotation_euler = loc, rot
+        tile = args.out[:-4] + f"_{i}.png"
+        demo_scene.render(scene, tile)
+        img = bpy.data.images.load(tile)
+        tiles.append(np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4))
+        bpy.data.images.remove(img)
+        os.remove(tile)
+    strip = np.concatenate(tiles, axis=1)
+    img = bpy.data.images.new("crease", strip.shape[1], strip.shape[0], alpha=True)
+    img.pixels.foreach_set(strip.ravel())
+    img.filepath_raw = os.path.abspath(args.out)
+    img.file_format = 'PNG'
+    img.save()
+    print(f"render_crease: wrote {args.out}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
