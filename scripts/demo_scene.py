@@ -203,6 +203,27 @@ def render(scene, path):
     bpy.ops.render.render(write_still=True)
 
 
+def render_strip(scene, path, views):
+    """Renders one picture per view and writes them side by side, left to right, to `path`
+    (PNG). `views`: functions that each place the scene's camera for one picture."""
+    tiles = []
+    for i, place_camera in enumerate(views):
+        place_camera()
+        tile = path[:-4] + f"_{i}.png"
+        render(scene, tile)
+        img = bpy.data.images.load(tile)
+        tiles.append(np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4))
+        bpy.data.images.remove(img)
+        os.remove(tile)
+    strip = np.concatenate(tiles, axis=1)
+    img = bpy.data.images.new("strip", strip.shape[1], strip.shape[0], alpha=True)
+    img.pixels.foreach_set(strip.ravel())
+    img.filepath_raw = os.path.abspath(path)
+    img.file_format = 'PNG'
+    img.save()
+    bpy.data.images.remove(img)
+
+
 #: Poses that get a close-up, and of which joint of the character's left side.
 CLOSE_UPS = {"elbow_bend": "elbow_l", "knee_bend": "knee_l", "forearm_twist": "forearm_l"}
 

@@ -62,21 +62,13 @@ def main():
     where = np.array(arm.matrix_world @ pb.head)
     views = [((where[0] + 10.0, where[1], where[2]), (np.pi / 2, 0.0, np.pi / 2)),           # from +X
              ((where[0], where[1] - 10.0, where[2] - 3.0), (np.radians(106.7), 0.0, 0.0))]   # front, below
-    tiles = []
-    for i, (loc, rot) in enumerate(views):
-        cam.location, cam.rotation_euler = loc, rot
-        tile = args.out[:-4] + f"_{i}.png"
-        demo_scene.render(scene, tile)
-        img = bpy.data.images.load(tile)
-        tiles.append(np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4))
-        bpy.data.images.remove(img)
-        os.remove(tile)
-    strip = np.concatenate(tiles, axis=1)
-    img = bpy.data.images.new("crease", strip.shape[1], strip.shape[0], alpha=True)
-    img.pixels.foreach_set(strip.ravel())
-    img.filepath_raw = os.path.abspath(args.out)
-    img.file_format = 'PNG'
-    img.save()
+
+    def place(loc, rot):
+        def place_camera():
+            cam.location, cam.rotation_euler = loc, rot
+        return place_camera
+
+    demo_scene.render_strip(scene, args.out, [place(loc, rot) for loc, rot in views])
     print(f"render_crease: wrote {args.out}", flush=True)
 
 

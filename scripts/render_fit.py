@@ -74,26 +74,19 @@ def main():
     for o in scene.objects:
         if o.type == 'CURVE':
             o.color = (0.05, 0.45, 0.95, 1.0)
-    tiles = []
-    for view, rot in (("front", (np.pi / 2, 0.0, 0.0)), ("side", (np.pi / 2, 0.0, np.pi / 2))):
-        cam = demo_scene.front_camera(scene, lo - 0.02 * height, hi + 0.02 * height)
-        if view == "side":
-            center = (lo + hi) / 2
-            cam.location = (hi[0] + 10.0, center[1], center[2])
-            cam.data.ortho_scale = 1.08 * max(hi[1] - lo[1], hi[2] - lo[2])
-        cam.rotation_euler = rot
-        path = args.out[:-4] + f"_{view}.png"
-        demo_scene.render(scene, path)
-        img = bpy.data.images.load(path)
-        tiles.append(np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4))
-        bpy.data.images.remove(img)
-        os.remove(path)
-    strip = np.concatenate(tiles, axis=1)
-    img = bpy.data.images.new("fit", strip.shape[1], strip.shape[0], alpha=True)
-    img.pixels.foreach_set(strip.ravel())
-    img.filepath_raw = args.out
-    img.file_format = 'PNG'
-    img.save()
+
+    def place(view, rot):
+        def place_camera():
+            cam = demo_scene.front_camera(scene, lo - 0.02 * height, hi + 0.02 * height)
+            if view == "side":
+                center = (lo + hi) / 2
+                cam.location = (hi[0] + 10.0, center[1], center[2])
+                cam.data.ortho_scale = 1.08 * max(hi[1] - lo[1], hi[2] - lo[2])
+            cam.rotation_euler = rot
+        return place_camera
+
+    demo_scene.render_strip(scene, args.out, [place("front", (np.pi / 2, 0.0, 0.0)),
+                                              place("side", (np.pi / 2, 0.0, np.pi / 2))])
     print(f"render_fit: {count} key ellipses of {len(report.get('chains', []))} chains -> {args.out}", flush=True)
 
 
