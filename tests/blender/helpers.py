@@ -196,22 +196,38 @@ def base_positions(obj):
     return co.reshape(-1, 3)
 
 
-def core_expectation(obj, depsgraph=None):
+def core_result(obj, depsgraph=None, anatomy=False, corrections=False):
     """What the core computes for the evaluated pose, through the add-on's native module but
-    not through its runtime: (expected mesh positions float32 as the add-on must produce
-    them, the core's raw deformed positions mapped to mesh space in float64)."""
-    native, persistence = sub("native"), sub("persistence")
+    not through its runtime: a fresh deformer from the stored blobs; with `anatomy`
+    sd_deform_with_anatomy with the object's effect settings; with `corrections` the
+    object's key-ellipse correction properties instead of those in the rig blob. Returns (expected mesh
+    positions float32 as the add-on must produce them, the core's raw deformed positions
+    mapped to mesh space in float64, the anatomy's stats or None)."""
+    native, persistence, runtime = sub("native"), sub("persistence"), sub("runtime")
     s = obj.sweep_deform
     dg = depsgraph or bpy.context.evaluated_depsgraph_get()
     rig, binding, names, rest = persistence.load(obj)
+    if corrections:
+        rig.set_corrections([], [], [], [])
     arm_eval = s.armature.evaluated_get(dg)
     obj_eval = obj.evaluated_get(dg)
     pose = np.concatenate([np.array(arm_eval.pose.bones[n].matrix, np.float32).T.ravel() for n in names])
     d = native.Deformer(rig, binding)
     d.set_volume_preservation(False, 0.0)
     rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
+    if corrections:
+        d.set_rig_corrections(*runtime.correction_arrays(s))
     d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)
-    deformed = d.deform(pose, np.empty((d.vertex_count, 3), np.float32))
+    deformed = np.empty((d.vertex_count, 3), np.float32)
+    stats = None
+    if anatomy:
+        tris = runtime.mesh_triangles(obj.data)
+        effects, problems = runtime.make_anatomy(rig, binding, names, tris, runtime.anatomy_settings(s))
+        assert not problems, problems
+        effects.deform(d, pose, deformed)
+        stats = effects.stats()
+    else:
+        d.deform(pose, deformed)
     m = np.array(arm_eval.matrix_world.inverted() @ obj_eval.matrix_world, np.float64)
     lin = m[:3, :3]
     offsets = deformed - rest_shape
@@ -219,6 +235,12 @@ def core_expectation(obj, depsgraph=None):
         offsets = offsets @ np.linalg.inv(lin).T.astype(np.float32)
     expected = base_positions(obj) + offsets.astype(np.float32)
     raw = (deformed.astype(np.float64) - m[:3, 3]) @ np.linalg.inv(lin).T
+    return expected, raw, stats
+
+
+def core_expectation(obj, depsgraph=None):
+    """core_result without the anatomical effects: (expected float32, raw float64)."""
+    expected, raw, _ = core_result(obj, depsgraph)
     return expected, raw
 
 

@@ -22,34 +22,10 @@ def frame(name):
 
 
 def expectation(obj, anatomy_on):
-    """The add-on's mesh for the evaluated pose, computed here from the stored blobs with the
-    native module directly (a fresh deformer, and sd_deform_with_anatomy when `anatomy_on`)."""
-    native, persistence, runtime = helpers.sub("native"), helpers.sub("persistence"), helpers.sub("runtime")
-    s = obj.sweep_deform
-    dg = bpy.context.evaluated_depsgraph_get()
-    rig, binding, names, rest = persistence.load(obj)
-    arm_eval = s.armature.evaluated_get(dg)
-    obj_eval = obj.evaluated_get(dg)
-    pose = np.concatenate([np.array(arm_eval.pose.bones[n].matrix, np.float32).T.ravel() for n in names])
-    d = native.Deformer(rig, binding)
-    d.set_volume_preservation(False, 0.0)
-    rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
-    d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)
-    out = np.empty((d.vertex_count, 3), np.float32)
-    stats = None
-    if anatomy_on:
-        tris = runtime.mesh_triangles(obj.data)
-        anatomy, problems = runtime.make_anatomy(rig, binding, names, tris, runtime.anatomy_settings(s))
-        assert not problems, problems
-        anatomy.deform(d, pose, out)
-        stats = anatomy.stats()
-    else:
-        d.deform(pose, out)
-    m = np.array(arm_eval.matrix_world.inverted() @ obj_eval.matrix_world, np.float64)
-    offsets = out - rest_shape
-    if not np.array_equal(m[:3, :3], np.eye(3)):
-        offsets = offsets @ np.linalg.inv(m[:3, :3]).T.astype(np.float32)
-    return helpers.base_positions(obj) + offsets.astype(np.float32), stats
+    """The add-on's mesh for the evaluated pose, from the stored blobs with the native module
+    directly (sd_deform_with_anatomy when `anatomy_on`), and the anatomy's stats."""
+    expected, _, stats = helpers.core_result(obj, anatomy=anatomy_on)
+    return expected, stats
 
 
 def evaluated(obj):

@@ -73,19 +73,7 @@ def edit_elbow_at(char, degrees):
 def core_with_corrections(obj):
     """The mesh as the core computes it from the stored rig and binding plus the object's
     correction properties, bypassing the add-on's runtime."""
-    native, persistence, runtime = helpers.sub("native"), helpers.sub("persistence"), helpers.sub("runtime")
-    rig, binding, names, rest = persistence.load(obj)
-    rig.set_corrections([], [], [], [])
-    d = native.Deformer(rig, binding)
-    d.set_volume_preservation(False, 0.0)
-    rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
-    d.set_rig_corrections(*runtime.correction_arrays(obj.sweep_deform))
-    s = obj.sweep_deform
-    d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)
-    arm = s.armature.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    pose = np.concatenate([np.array(arm.pose.bones[n].matrix, np.float32).T.ravel() for n in names])
-    deformed = d.deform(pose, np.empty((d.vertex_count, 3), np.float32))
-    return helpers.base_positions(obj) + (deformed - rest_shape)  # identity mesh→armature map
+    return helpers.core_result(obj, corrections=True)[0]
 
 
 # ---- Blender-free math -------------------------------------------------------------------------
