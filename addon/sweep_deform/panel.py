@@ -86,8 +86,8 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
         sub.prop(s, "volume_strength")
 
 
-class OBJECT_PT_sweep_deform_volumes(bpy.types.Panel):
-    bl_label = "Limb Volumes"
+class _BoundSubPanel:
+    """A sub-panel of the modifier's panel, shown for a bound mesh."""
     bl_space_type = 'PROPERTIES'
     bl_region_type = 'WINDOW'
     bl_context = "modifier"
@@ -97,6 +97,10 @@ class OBJECT_PT_sweep_deform_volumes(bpy.types.Panel):
     def poll(cls, context):
         obj = context.object
         return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+
+
+class OBJECT_PT_sweep_deform_volumes(_BoundSubPanel, bpy.types.Panel):
+    bl_label = "Limb Volumes"
 
     def draw(self, context):
         layout = self.layout
@@ -125,20 +129,11 @@ class OBJECT_PT_sweep_deform_volumes(bpy.types.Panel):
         layout.label(text="Change from the rest volume, before and after volume control", icon='INFO')
 
 
-class OBJECT_PT_sweep_deform_anatomy(bpy.types.Panel):
+class OBJECT_PT_sweep_deform_anatomy(_BoundSubPanel, bpy.types.Panel):
     """Anatomical effects (Sect. 4.3, 4.4): on/off, per joint folding / protrusion / bulge
     and their strengths, and the last frame's figures."""
     bl_label = "Anatomical Effects"
-    bl_space_type = 'PROPERTIES'
-    bl_region_type = 'WINDOW'
-    bl_context = "modifier"
-    bl_parent_id = "OBJECT_PT_sweep_deform"
     bl_options = {'DEFAULT_CLOSED'}
-
-    @classmethod
-    def poll(cls, context):
-        obj = context.object
-        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
 
     def draw_header(self, context):
         self.layout.prop(context.object.sweep_deform, "use_anatomy", text="")
@@ -297,17 +292,8 @@ def draw_key_editing(layout, context, obj, compact=False):
     col.prop(s, "show_sweeps", text="Draw Sweeps")
 
 
-class OBJECT_PT_sweep_deform_keys(bpy.types.Panel):
+class OBJECT_PT_sweep_deform_keys(_BoundSubPanel, bpy.types.Panel):
     bl_label = "Key Ellipses"
-    bl_space_type = 'PROPERTIES'
-    bl_region_type = 'WINDOW'
-    bl_context = "modifier"
-    bl_parent_id = "OBJECT_PT_sweep_deform"
-
-    @classmethod
-    def poll(cls, context):
-        obj = context.object
-        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
 
     def draw(self, context):
         draw_key_editing(self.layout, context, context.object)
