@@ -14,6 +14,9 @@ import bpy
 import numpy as np
 from mathutils import Quaternion
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mesh_topology import topology_counts  # noqa: E402
+
 MARKERS = ["rest", "walk", "arms_up", "knee_bend", "elbow_bend", "forearm_twist", "spine_bend"]
 BONES = ["pelvis", "spine_01", "spine_02", "spine_03", "neck", "head"] + [
     f"{b}.{s}" for s in "LR" for b in ("clavicle", "upper_arm", "forearm", "hand", "thigh", "shin", "foot", "toe")]
@@ -41,30 +44,6 @@ def evaluated_coords(ob):
     co = coords(me)
     ev.to_mesh_clear()
     return co
-
-
-def topology(me):
-    nv = len(me.vertices)
-    ev = np.empty(len(me.edges) * 2, np.int64)
-    me.edges.foreach_get("vertices", ev)
-    ev = ev.reshape(-1, 2)
-    le = np.empty(len(me.loops), np.int64)
-    me.loops.foreach_get("edge_index", le)
-    per_edge = np.bincount(le, minlength=len(me.edges))
-    parent = np.arange(nv)
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-    for a, b in ev:
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    comps = len({find(i) for i in range(nv)})
-    euler = nv - len(me.edges) + len(me.polygons)
-    return int(np.sum(per_edge == 1)), int(np.sum(per_edge != 2)), comps, euler
 
 
 def weights(ob, bone_names):
@@ -108,7 +87,7 @@ def main():
     nv = len(me.vertices)
     lo, hi = (4000, 9000) if light else (60000, 90000)
     check(lo <= nv <= hi, "vertex count", f"{nv} vertices, {len(me.polygons)} faces (expected {lo}..{hi})")
-    b, nm, comps, chi = topology(me)
+    b, nm, comps, chi = topology_counts(me)
     check(b == 0 and nm == 0 and comps == 1 and chi == 2, "closed, manifold, one component, genus 0",
           f"boundary edges {b}, non-manifold edges {nm}, components {comps}, Euler characteristic {chi}")
     rest = coords(me)

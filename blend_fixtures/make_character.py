@@ -23,6 +23,9 @@ import numpy as np
 from mathutils import Euler, Matrix, Vector
 from mathutils.kdtree import KDTree
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mesh_topology import topology_counts  # noqa: E402
+
 HEIGHT = 1.75          # metres, top of the head; the soles touch z = 0
 FPS = 24
 LEVELS = {"light": 2, "full": 4}     # Catmull-Clark levels applied to the Skin modifier's cage
@@ -292,34 +295,6 @@ def mesh_coords(me):
     return co.reshape(-1, 3)
 
 
-def mesh_topology_report(me):
-    """(boundary edges, non-manifold edges, connected components) from edge/face incidence."""
-    nv = len(me.vertices)
-    ev = np.empty(len(me.edges) * 2, np.int64)
-    me.edges.foreach_get("vertices", ev)
-    ev = ev.reshape(-1, 2)
-    # faces per edge
-    lt = np.empty(len(me.loops), np.int64)
-    me.loops.foreach_get("edge_index", lt)
-    per_edge = np.bincount(lt, minlength=len(me.edges))
-    boundary = int(np.sum(per_edge == 1))
-    nonmanifold = int(np.sum(per_edge != 2))
-    # components (union-find)
-    parent = np.arange(nv)
-
-    def find(a):
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-    for a, b in ev:
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-    comps = len({find(i) for i in range(nv)})
-    return boundary, nonmanifold, comps
-
-
 def normalise(meshes, ref_level):
     """Scale about the origin so the reference mesh is HEIGHT tall, then lift it so min z = 0 and
     centre x.  Applies the same transform to all meshes and to the joint table.  Returns it."""
@@ -515,7 +490,7 @@ def main():
     scale, shift = normalise(meshes, LEVELS["full"])
     log(f"Blender {bpy.app.version_string}; normalised: scale {scale:.5f}, lift {shift.z:.5f} m")
     for lv, me in sorted(meshes.items()):
-        b, nm, c = mesh_topology_report(me)
+        b, nm, c, _ = topology_counts(me)
         co = mesh_coords(me)
         log(f"  level {lv}: {len(me.vertices)} vertices, {len(me.polygons)} faces, boundary {b}, "
             f"non-manifold {nm}, components {c}, z {co[:, 2].min():.4f}..{co[:, 2].max():.4f}")
