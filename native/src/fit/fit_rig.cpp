@@ -1,5 +1,7 @@
 #include "fit/fit_rig.h"
 
+#include <nlohmann/json.hpp>
+
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -9,243 +11,84 @@ namespace sd::fit {
 
 namespace {
 
-/// A tiny JSON writer: enough for the report.
-class Json {
-public:
-    std::string text;
-    void str(const std::string& s) {
-        text += '"';
-        for (char c : s) {
-            switch (c) {
-                case '"':
-                    text += "\\\"";
-                    break;
-                case '\\':
-                    text += "\\\\";
-                    break;
-                case '\n':
-                    text += "\\n";
-                    break;
-                case '\t':
-                    text += "\\t";
-                    break;
-                default:
-                    if (static_cast<unsigned char>(c) < 0x20) {
-                        char buf[8];
-                        std::snprintf(buf, sizeof buf, "\\u%04x", c);
-                        text += buf;
-                    } else {
-                        text += c;
-                    }
-            }
-        }
-        text += '"';
-    }
-    void num(double x) {
-        if (!std::isfinite(x)) {
-            text += "null";
-            return;
-        }
-        char buf[32];
-        std::snprintf(buf, sizeof buf, "%.7g", x);
-        text += buf;
-    }
-    void vec(const dvec3& v) {
-        text += '[';
-        for (int i = 0; i < 3; ++i) {
-            if (i) text += ',';
-            num(v[i]);
-        }
-        text += ']';
-    }
-    void key(const char* k) {
-        comma();
-        str(k);
-        text += ':';
-        fresh_ = true;
-    }
-    void open(char c) {
-        comma();
-        text += c;
-        fresh_ = true;
-    }
-    void close(char c) {
-        text += c;
-        fresh_ = false;
-    }
-    void value_str(const std::string& s) {
-        comma();
-        str(s);
-        fresh_ = false;
-    }
-    void value_num(double x) {
-        comma();
-        num(x);
-        fresh_ = false;
-    }
-    void value_vec(const dvec3& v) {
-        comma();
-        vec(v);
-        fresh_ = false;
-    }
-    void value_raw(const char* raw) {
-        comma();
-        text += raw;
-        fresh_ = false;
-    }
-    void strings(const std::vector<std::string>& list) {
-        open('[');
-        for (const std::string& s : list) value_str(s);
-        close(']');
-    }
+/// The report keeps the order in which its fields are written (easier to read).
+using Json = nlohmann::ordered_json;
 
-private:
-    void comma() {
-        if (!fresh_ && !text.empty()) text += ',';
-        fresh_ = false;
-    }
-    bool fresh_ = true;
-};
+Json json_vec(const dvec3& v) { return Json::array({v.x, v.y, v.z}); }
 
 std::string bone_name(const FitInput& in, int b) {
     return b >= 0 && b < static_cast<int>(in.bone_names.size()) ? in.bone_names[b] : std::string();
 }
 
+/// The fitting's report as JSON (see docs): mesh checks, body frame, chains with their key
+/// ellipses, region statistics, notes and warnings. Lengths in the caller's units; NaN and
+/// infinite figures become null; bone names that are not UTF-8 get U+FFFD.
 std::string make_report(const FitInput& in, const FitResult& r) {
-    Json j;
-    j.open('{');
-    j.key("version");
-    j.value_num(1);
-    j.key("mesh");
-    j.open('{');
-    j.key("vertices");
-    j.value_num(r.mesh.vertices);
-    j.key("triangles");
-    j.value_num(r.mesh.triangles);
-    j.key("components");
-    j.value_num(r.mesh.components);
-    j.key("boundary_edges");
-    j.value_num(r.mesh.boundary_edges);
-    j.key("nonmanifold_faces");
-    j.value_num(r.mesh.nonmanifold_faces);
-    j.key("degenerate_triangles");
-    j.value_num(r.mesh.degenerate_triangles);
-    j.key("unused_vertices");
-    j.value_num(r.mesh.unused_vertices);
-    j.close('}');
-    j.key("body");
-    j.open('{');
-    j.key("up");
-    j.value_vec(r.chains.frame.up);
-    j.key("left");
-    j.value_vec(r.chains.frame.left);
-    j.key("forward");
-    j.value_vec(r.chains.frame.forward);
-    j.key("sides_known");
-    j.value_raw(r.chains.frame.sides_known ? "true" : "false");
-    j.close('}');
-    j.key("chains");
-    j.open('[');
+    Json chains = Json::array();
     for (size_t c = 0; c < r.chains.chains.size(); ++c) {
         const Chain& ch = r.chains.chains[c];
         const ChainFit& fit = r.fits[c];
-        j.open('{');
-        j.key("name");
-        j.value_str(ch.name);
-        j.key("kind");
-        j.value_str(chain_kind_name(ch.kind));
-        j.key("side");
-        j.value_num(ch.side);
-        j.key("bones");
-        j.open('[');
-        for (int b : ch.bones) j.value_num(b);
-        j.close(']');
-        j.key("bone_names");
-        j.open('[');
-        for (int b : ch.bones) j.value_str(bone_name(in, b));
-        j.close(']');
-        j.key("first_swept_bone");
-        j.value_num(ch.bones[ch.first_swept]);
-        j.key("end_bone");
-        j.value_num(ch.end_bone);
-        j.key("end_bone_name");
-        j.value_str(bone_name(in, ch.end_bone));
-        j.key("parent_chain");
-        j.value_num(ch.parent_chain);
-        j.key("sweep");
-        j.value_num(r.chain_sweep[c]);
-        if (!fit.error.empty()) {
-            j.key("error");
-            j.value_str(fit.error);
-        }
-        j.key("notes");
-        j.strings(fit.notes);
-        j.key("keys");
-        j.open('[');
-        for (const KeyReport& k : fit.reports) {
-            j.open('{');
-            j.key("role");
-            j.value_str(k.role);
-            j.key("bone");
-            j.value_num(k.bone);
-            j.key("joint_parent");
-            j.value_num(k.joint_parent);
-            j.key("center");
-            j.value_vec(k.center);
-            j.key("normal");
-            j.value_vec(k.normal);
-            j.key("first_axis");
-            j.value_vec(k.first_axis);
-            j.key("half_axes");
-            j.open('[');
-            j.value_num(k.a);
-            j.value_num(k.b);
-            j.close(']');
-            j.key("section_area");
-            j.value_num(k.section_area);
-            j.key("fitted_ellipse_area");
-            j.value_num(k.ellipse_area);
-            j.key("ellipse_area");
-            j.value_num(M_PI * k.a * k.b);
-            j.key("fit_rms");
-            j.value_num(k.fit_rms);
-            j.key("owned_fraction");
-            j.value_num(k.owned_fraction);
-            j.key("fallback");
-            j.value_raw(k.fallback ? "true" : "false");
-            j.key("notes");
-            j.strings(k.notes);
-            j.close('}');
-        }
-        j.close(']');
-        j.close('}');
+        Json names = Json::array();
+        for (int b : ch.bones) names.push_back(bone_name(in, b));
+        Json j = {{"name", ch.name},
+                  {"kind", chain_kind_name(ch.kind)},
+                  {"side", ch.side},
+                  {"bones", ch.bones},
+                  {"bone_names", names},
+                  {"first_swept_bone", ch.bones[ch.first_swept]},
+                  {"end_bone", ch.end_bone},
+                  {"end_bone_name", bone_name(in, ch.end_bone)},
+                  {"parent_chain", ch.parent_chain},
+                  {"sweep", r.chain_sweep[c]}};
+        if (!fit.error.empty()) j["error"] = fit.error;
+        j["notes"] = fit.notes;
+        Json keys = Json::array();
+        for (const KeyReport& k : fit.reports)
+            keys.push_back({{"role", k.role},
+                            {"bone", k.bone},
+                            {"joint_parent", k.joint_parent},
+                            {"center", json_vec(k.center)},
+                            {"normal", json_vec(k.normal)},
+                            {"first_axis", json_vec(k.first_axis)},
+                            {"half_axes", {k.a, k.b}},
+                            {"section_area", k.section_area},
+                            {"fitted_ellipse_area", k.ellipse_area},
+                            {"ellipse_area", M_PI * k.a * k.b},
+                            {"fit_rms", k.fit_rms},
+                            {"owned_fraction", k.owned_fraction},
+                            {"fallback", k.fallback},
+                            {"notes", k.notes}});
+        j["keys"] = keys;
+        chains.push_back(j);
     }
-    j.close(']');
-    j.key("regions");
-    j.open('{');
-    j.key("source");
-    j.value_str(r.weights.source);
-    j.key("sweep_slots");
-    j.value_num(r.weights.sweep_slots);
-    j.key("bone_slots");
-    j.value_num(r.weights.bone_slots);
-    j.key("vertices_bound");
-    j.value_num(r.weights.vertices_bound);
-    j.key("vertices_on_sweeps");
-    j.value_num(r.weights.vertices_on_sweeps);
-    j.key("vertices_rigid_only");
-    j.value_num(r.weights.vertices_rigid_only);
-    j.key("vertices_blended");
-    j.value_num(r.weights.vertices_blended);
-    j.key("vertices_from_nearest_bone");
-    j.value_num(r.weights.vertices_from_nearest_bone);
-    j.close('}');
-    j.key("notes");
-    j.strings(r.chains.notes);
-    j.key("warnings");
-    j.strings(r.warnings);
-    j.close('}');
-    return j.text;
+    const Json report = {
+        {"version", 1},
+        {"mesh",
+         {{"vertices", r.mesh.vertices},
+          {"triangles", r.mesh.triangles},
+          {"components", r.mesh.components},
+          {"boundary_edges", r.mesh.boundary_edges},
+          {"nonmanifold_faces", r.mesh.nonmanifold_faces},
+          {"degenerate_triangles", r.mesh.degenerate_triangles},
+          {"unused_vertices", r.mesh.unused_vertices}}},
+        {"body",
+         {{"up", json_vec(r.chains.frame.up)},
+          {"left", json_vec(r.chains.frame.left)},
+          {"forward", json_vec(r.chains.frame.forward)},
+          {"sides_known", r.chains.frame.sides_known}}},
+        {"chains", chains},
+        {"regions",
+         {{"source", r.weights.source},
+          {"sweep_slots", r.weights.sweep_slots},
+          {"bone_slots", r.weights.bone_slots},
+          {"vertices_bound", r.weights.vertices_bound},
+          {"vertices_on_sweeps", r.weights.vertices_on_sweeps},
+          {"vertices_rigid_only", r.weights.vertices_rigid_only},
+          {"vertices_blended", r.weights.vertices_blended},
+          {"vertices_from_nearest_bone", r.weights.vertices_from_nearest_bone}}},
+        {"notes", r.chains.notes},
+        {"warnings", r.warnings}};
+    return report.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
 void validate_skin(const FitInput& in) {
