@@ -378,10 +378,7 @@ class Rig(_Handle):
 
     @classmethod
     def deserialize(cls, blob):
-        data = np.frombuffer(bytes(blob), dtype=np.uint8)
-        out = RigP()
-        _call("sd_rig_deserialize", data if data.size else np.zeros(1, np.uint8), data.size, ctypes.byref(out))
-        return cls(out)
+        return cls(_deserialize("sd_rig_deserialize", RigP, blob))
 
     def clone(self):
         out = RigP()
@@ -554,11 +551,21 @@ def _correction_arrays(sweeps, keys, angles, values, muted):
 
 
 def _serialize(name, ptr):
+    """The blob of a handle: asks the size first, then fills a buffer of that size."""
     size = ctypes.c_int64()
     _call(name, ptr, None, 0, ctypes.byref(size))
     buf = np.empty(size.value, np.uint8)
     _call(name, ptr, buf, size.value, ctypes.byref(size))
     return buf.tobytes()
+
+
+def _deserialize(name, pointer_type, blob):
+    """A new handle (of `pointer_type`) read from `blob` bytes by the ABI function `name`. An
+    empty blob still passes a valid pointer, so the library reports it as corrupt data."""
+    data = np.frombuffer(bytes(blob), dtype=np.uint8)
+    out = pointer_type()
+    _call(name, data if data.size else np.zeros(1, np.uint8), data.size, ctypes.byref(out))
+    return out
 
 
 class Binding(_Handle):
@@ -583,10 +590,7 @@ class Binding(_Handle):
 
     @classmethod
     def deserialize(cls, blob):
-        data = np.frombuffer(bytes(blob), dtype=np.uint8)
-        out = BindingP()
-        _call("sd_binding_deserialize", data if data.size else np.zeros(1, np.uint8), data.size, ctypes.byref(out))
-        return cls(out)
+        return cls(_deserialize("sd_binding_deserialize", BindingP, blob))
 
     @property
     def vertex_count(self):

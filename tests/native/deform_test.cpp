@@ -2,6 +2,7 @@
 // twist without the candy-wrapper, sweep blending, thread-count independence.
 #include "key_pose.h"
 #include "linear_blend_skinning.h"
+#include "point_metrics.h"
 #include "test_arm.h"
 
 #include <gtest/gtest.h>
@@ -10,22 +11,8 @@
 namespace sd {
 namespace {
 
-double diagonal(const std::vector<float>& p) {
-    dvec3 lo(1e30), hi(-1e30);
-    for (size_t i = 0; i < p.size(); i += 3) {
-        const dvec3 v(p[i], p[i + 1], p[i + 2]);
-        lo = glm::min(lo, v);
-        hi = glm::max(hi, v);
-    }
-    return glm::length(hi - lo);
-}
-
-double max_distance(const std::vector<float>& a, const std::vector<float>& b) {
-    double d = 0;
-    for (size_t i = 0; i < a.size(); i += 3)
-        d = std::max(d, glm::length(dvec3(a[i] - b[i], a[i + 1] - b[i + 1], a[i + 2] - b[i + 2])));
-    return d;
-}
+using testing::diagonal;
+using testing::max_distance;
 
 /// Area of a closed planar polygon given as consecutive points of `p` (|Σ p_i × p_i+1| / 2).
 double ring_area(const std::vector<float>& p, int first, int count) {

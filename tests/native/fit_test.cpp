@@ -4,6 +4,7 @@
 // the true cross-section, 90° bends through the character's own skeleton, and the time of
 // fitting + binding the refined 80K-vertex MakeHuman.
 #include "fit_support.h"
+#include "point_metrics.h"
 #include "bind.h"
 #include "deform.h"
 #include "fit/cross_section.h"
@@ -28,6 +29,9 @@
 
 namespace sd {
 namespace {
+
+using testing::diagonal;
+using testing::max_distance;
 
 // ---- synthetic meshes -----------------------------------------------------------------
 
@@ -120,28 +124,6 @@ fit::FitInput tube_input(const TubeMesh& m, const Skeleton& s, std::vector<std::
     in.skeleton = s;
     in.chains = std::move(chains);
     return in;
-}
-
-double max_distance(const std::vector<float>& a, const std::vector<float>& b) {
-    double d = 0.0;
-    for (size_t i = 0; i < a.size(); i += 3)
-        d = std::max(d, glm::length(dvec3(a[i] - b[i], a[i + 1] - b[i + 1], a[i + 2] - b[i + 2])));
-    return d;
-}
-
-double diagonal(const std::vector<float>& p) {
-    dvec3 lo(1e30), hi(-1e30);
-    for (size_t i = 0; i < p.size(); i += 3) {
-        lo = glm::min(lo, dvec3(p[i], p[i + 1], p[i + 2]));
-        hi = glm::max(hi, dvec3(p[i], p[i + 1], p[i + 2]));
-    }
-    return glm::length(hi - lo);
-}
-
-Binding bind_result(const fit::FitResult& r, int V, const float* positions) {
-    const fit::RegionWeights& w = r.weights;
-    return bind_vertices(r.rig, V, positions, w.sweep_slots, w.sweep_ids.data(), w.sweep_weights.data(),
-                         w.bone_slots, w.bone_ids.data(), w.bone_weights.data());
 }
 
 std::vector<float> rest_pose(const Skeleton& s) {
@@ -283,7 +265,7 @@ TEST(FitAnalytic, MitredTubeElbowKeyIsTheMitreEllipse) {
     }
     // Bind and deform: rest reproduces; a 90° bend keeps the tube finite and the far end
     // rigid with the second bone.
-    const Binding binding = bind_result(res, m.vertex_count(), m.positions.data());
+    const Binding binding = testing::bind_fitted(res, m.vertex_count(), m.positions.data());
     Deformer d(res.rig, binding);
     std::vector<float> out(m.positions.size());
     d.deform(rest_pose(s).data(), out.data());
@@ -621,7 +603,7 @@ void check_character(const io::Character& c, const CharacterCase& cc, const std:
     const auto t0 = std::chrono::steady_clock::now();
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
     const auto t1 = std::chrono::steady_clock::now();
-    const Binding binding = bind_result(r, V, c.positions.data());
+    const Binding binding = testing::bind_fitted(r, V, c.positions.data());
     const auto t2 = std::chrono::steady_clock::now();
     std::printf("%s: %d vertices; fit %.0f ms + bind %.0f ms\n", label.c_str(), V,
                 std::chrono::duration<double, std::milli>(t1 - t0).count(),
@@ -826,7 +808,7 @@ TEST(FitCharacterGeometry, MakeHumanWithoutSkinWeights) {
     EXPECT_EQ(r.rig.sweeps.size(), 6u) << r.report;
     const int V = static_cast<int>(c.positions.size() / 3);
     EXPECT_GE(r.weights.vertices_bound, V * 99 / 100);
-    const Binding binding = bind_result(r, V, c.positions.data());
+    const Binding binding = testing::bind_fitted(r, V, c.positions.data());
     Deformer d(r.rig, binding);
     std::vector<float> out(c.positions.size());
     d.deform(io::rest_pose(c).data(), out.data());
@@ -855,7 +837,7 @@ TEST_P(FitMotion, MocapPosesStayCloseToSkinning) {
     const fit::FitResult r = fit::fit_rig(in);
     ASSERT_EQ(r.rig.sweeps.size(), 6u) << r.report;
     const int V = static_cast<int>(c.positions.size() / 3);
-    Deformer d(r.rig, bind_result(r, V, c.positions.data()));
+    Deformer d(r.rig, testing::bind_fitted(r, V, c.positions.data()));
     const double diag = diagonal(c.positions);
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     double worst_mean = 0.0, worst_max = 0.0;
@@ -899,7 +881,7 @@ TEST(FitCharacterTiming, RefinedMakeHumanFitPlusBind) {
     const auto t0 = std::chrono::steady_clock::now();
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
     const auto t1 = std::chrono::steady_clock::now();
-    const Binding binding = bind_result(r, V, c.positions.data());
+    const Binding binding = testing::bind_fitted(r, V, c.positions.data());
     const auto t2 = std::chrono::steady_clock::now();
     const double fit_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
     const double bind_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();

@@ -3,6 +3,7 @@
 #include "bone_rig.h"
 #include "deform.h"
 #include "linear_blend_skinning.h"
+#include "point_metrics.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -14,6 +15,8 @@
 namespace sd {
 namespace {
 
+using testing::diagonal;
+
 std::string data_file(const std::string& name) {
     return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name;
 }
@@ -21,15 +24,6 @@ std::string data_file(const std::string& name) {
 #define REQUIRE_DATA(path)                                                              \
     if (!std::filesystem::exists(path))                                                 \
     GTEST_SKIP() << "../shared/data not found (" << path << "): real-character test skipped"
-
-double diagonal(const std::vector<float>& p) {
-    dvec3 lo(1e30), hi(-1e30);
-    for (size_t i = 0; i < p.size(); i += 3) {
-        lo = glm::min(lo, dvec3(p[i], p[i + 1], p[i + 2]));
-        hi = glm::max(hi, dvec3(p[i], p[i + 1], p[i + 2]));
-    }
-    return glm::length(hi - lo);
-}
 
 class RealCharacter : public ::testing::TestWithParam<const char*> {};
 

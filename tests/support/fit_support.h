@@ -30,12 +30,16 @@ inline fit::FitInput character_input(const io::Character& c, const Skeleton& s) 
 
 inline fit::FitInput fit_input(const io::Character& c) { return character_input(c, skeleton_of(c)); }
 
+/// Binds `vertex_count` positions (x, y, z each) with the fitted rig and region weights.
+inline Binding bind_fitted(const fit::FitResult& f, int vertex_count, const float* positions) {
+    const fit::RegionWeights& w = f.weights;
+    return bind_vertices(f.rig, vertex_count, positions, w.sweep_slots, w.sweep_ids.data(), w.sweep_weights.data(),
+                         w.bone_slots, w.bone_ids.data(), w.bone_weights.data());
+}
+
 /// Binds the character with the fitted rig and region weights.
 inline Binding bind_fitted(const io::Character& c, const fit::FitResult& f) {
-    const fit::RegionWeights& w = f.weights;
-    return bind_vertices(f.rig, static_cast<int>(c.positions.size() / 3), c.positions.data(), w.sweep_slots,
-                         w.sweep_ids.data(), w.sweep_weights.data(), w.bone_slots, w.bone_ids.data(),
-                         w.bone_weights.data());
+    return bind_fitted(f, static_cast<int>(c.positions.size() / 3), c.positions.data());
 }
 
 }  // namespace sd::testing
