@@ -319,6 +319,17 @@ struct Convention {
   std::vector<std::pair<const char*, Canon>> names;  // normalised names
 };
 
+/// Mixamo's skeleton: a motion source (exported as BVH) and a character's skeleton alike.
+Convention mixamo() {
+  return {"Mixamo",
+          {{"hips", kHips}, {"spine", kSpine1}, {"spine1", kSpine2}, {"spine2", kSpine3}, {"neck", kNeck},
+           {"head", kHead}, {"leftshoulder", kClavicleL}, {"leftarm", kUpperArmL}, {"leftforearm", kLowerArmL},
+           {"lefthand", kHandL}, {"leftupleg", kThighL}, {"leftleg", kCalfL}, {"leftfoot", kFootL},
+           {"lefttoebase", kToeL}, {"rightshoulder", kClavicleR}, {"rightarm", kUpperArmR},
+           {"rightforearm", kLowerArmR}, {"righthand", kHandR}, {"rightupleg", kThighR}, {"rightleg", kCalfR},
+           {"rightfoot", kFootR}, {"righttoebase", kToeR}}};
+}
+
 const std::vector<Convention>& source_conventions() {
   static const std::vector<Convention> c = {
       {"cgspeed MotionBuilder",
@@ -335,13 +346,7 @@ const std::vector<Convention>& source_conventions() {
         {"rforearm", kLowerArmR}, {"rhand", kHandR}, {"rthigh", kThighR}, {"rshin", kCalfR}, {"rfoot", kFootR}}},
       // Mixamo's skeleton exported as BVH: like cgspeed's names, but three spine joints
       // Spine, Spine1, Spine2 and no LowerBack; the file matching more names wins.
-      {"Mixamo",
-       {{"hips", kHips}, {"spine", kSpine1}, {"spine1", kSpine2}, {"spine2", kSpine3}, {"neck", kNeck},
-        {"head", kHead}, {"leftshoulder", kClavicleL}, {"leftarm", kUpperArmL}, {"leftforearm", kLowerArmL},
-        {"lefthand", kHandL}, {"leftupleg", kThighL}, {"leftleg", kCalfL}, {"leftfoot", kFootL},
-        {"lefttoebase", kToeL}, {"rightshoulder", kClavicleR}, {"rightarm", kUpperArmR},
-        {"rightforearm", kLowerArmR}, {"righthand", kHandR}, {"rightupleg", kThighR}, {"rightleg", kCalfR},
-        {"rightfoot", kFootR}, {"righttoebase", kToeR}}},
+      mixamo(),
   };
   return c;
 }
@@ -354,13 +359,7 @@ const std::vector<Convention>& target_conventions() {
         {"handl", kHandL}, {"thighl", kThighL}, {"calfl", kCalfL}, {"footl", kFootL}, {"balll", kToeL},
         {"clavicler", kClavicleR}, {"upperarmr", kUpperArmR}, {"lowerarmr", kLowerArmR}, {"handr", kHandR},
         {"thighr", kThighR}, {"calfr", kCalfR}, {"footr", kFootR}, {"ballr", kToeR}}},
-      {"Mixamo",
-       {{"hips", kHips}, {"spine", kSpine1}, {"spine1", kSpine2}, {"spine2", kSpine3}, {"neck", kNeck},
-        {"head", kHead}, {"leftshoulder", kClavicleL}, {"leftarm", kUpperArmL}, {"leftforearm", kLowerArmL},
-        {"lefthand", kHandL}, {"leftupleg", kThighL}, {"leftleg", kCalfL}, {"leftfoot", kFootL},
-        {"lefttoebase", kToeL}, {"rightshoulder", kClavicleR}, {"rightarm", kUpperArmR},
-        {"rightforearm", kLowerArmR}, {"righthand", kHandR}, {"rightupleg", kThighR}, {"rightleg", kCalfR},
-        {"rightfoot", kFootR}, {"righttoebase", kToeR}}},
+      mixamo(),
       {"CesiumMan",
        {{"skeletontorsojoint1", kHips}, {"skeletontorsojoint2", kSpine1}, {"torsojoint3", kSpine3},
         {"skeletonneckjoint1", kNeck}, {"skeletonneckjoint2", kHead}, {"skeletonarmjointl4", kUpperArmL},

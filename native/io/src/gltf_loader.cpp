@@ -70,42 +70,32 @@ AccessorData accessor_data(const tinygltf::Model& m, int index, int expected_typ
   return d;
 }
 
+/// A value of type T at p. memcpy because glTF only guarantees alignment to the component size
+/// within a buffer.
+template <class T>
+T load(const unsigned char* p) {
+  T v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+
 /// One component as a number, normalized integers mapped to [0, 1] / [-1, 1] (glTF rules).
-/// memcpy because glTF only guarantees alignment to the component size within a buffer.
 double read_component(const unsigned char* p, int type, bool normalized) {
   switch (type) {
-    case TINYGLTF_COMPONENT_TYPE_FLOAT: {
-      float v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_DOUBLE: {
-      double v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    }
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return load<float>(p);
+    case TINYGLTF_COMPONENT_TYPE_DOUBLE:
+      return load<double>(p);
     case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
       return normalized ? p[0] / 255.0 : p[0];
-    case TINYGLTF_COMPONENT_TYPE_BYTE: {
-      int8_t v;
-      std::memcpy(&v, p, sizeof v);
-      return normalized ? std::max(v / 127.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-      uint16_t v;
-      std::memcpy(&v, p, sizeof v);
-      return normalized ? v / 65535.0 : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_SHORT: {
-      int16_t v;
-      std::memcpy(&v, p, sizeof v);
-      return normalized ? std::max(v / 32767.0, -1.0) : v;
-    }
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-      uint32_t v;
-      std::memcpy(&v, p, sizeof v);
-      return v;
-    }
+    case TINYGLTF_COMPONENT_TYPE_BYTE:
+      return normalized ? std::max(load<int8_t>(p) / 127.0, -1.0) : load<int8_t>(p);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return normalized ? load<uint16_t>(p) / 65535.0 : load<uint16_t>(p);
+    case TINYGLTF_COMPONENT_TYPE_SHORT:
+      return normalized ? std::max(load<int16_t>(p) / 32767.0, -1.0) : load<int16_t>(p);
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+      return load<uint32_t>(p);
     default:
       fail("unsupported accessor component type " + std::to_string(type));
   }
