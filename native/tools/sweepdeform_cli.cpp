@@ -266,19 +266,20 @@ struct Handles {
     }
 };
 
-std::vector<uint8_t> rig_blob(const sd_rig* rig) {
+/// The blob of a handle through its sd_*_serialize (`what` names it in errors): the size first,
+/// then the bytes.
+template <class Handle>
+std::vector<uint8_t> blob_of(const Handle* h, sd_status (*serialize)(const Handle*, uint8_t*, int64_t, int64_t*),
+                             const char* what) {
     int64_t n = 0;
-    check(sd_rig_serialize(rig, nullptr, 0, &n), "sd_rig_serialize");
+    check(serialize(h, nullptr, 0, &n), what);
     std::vector<uint8_t> b(static_cast<size_t>(n));
-    check(sd_rig_serialize(rig, b.data(), n, &n), "sd_rig_serialize");
+    check(serialize(h, b.data(), n, &n), what);
     return b;
 }
+std::vector<uint8_t> rig_blob(const sd_rig* rig) { return blob_of(rig, sd_rig_serialize, "sd_rig_serialize"); }
 std::vector<uint8_t> binding_blob(const sd_binding* binding) {
-    int64_t n = 0;
-    check(sd_binding_serialize(binding, nullptr, 0, &n), "sd_binding_serialize");
-    std::vector<uint8_t> b(static_cast<size_t>(n));
-    check(sd_binding_serialize(binding, b.data(), n, &n), "sd_binding_serialize");
-    return b;
+    return blob_of(binding, sd_binding_serialize, "sd_binding_serialize");
 }
 
 double ms_since(std::chrono::steady_clock::time_point t0) {
