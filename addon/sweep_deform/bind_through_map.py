@@ -13,8 +13,6 @@ store stage (bind.store), so the result saves, reloads, undoes and un-binds like
 
 import json
 
-import numpy as np
-
 from . import bind, native, native_dmap, persistence, rig_io, runtime
 
 
@@ -45,47 +43,38 @@ def fit_map(source):
                                        runtime.mesh_triangles(source.data))
 
 
-def bind_points(target, source, dmap, snap=native_dmap.SNAP_DEFAULT):
-    """Binds `target`'s points through `dmap`, the map of the bound `source` (fit_map), without
-    storing anything: returns (bind.BindInputs, bind.BindOutputs, influences snapped) for
-    bind.store.
-
-    target: a mesh object lying where the source's body lies (any resolution, faces optional).
-    snap: sd_dmap_bind's snap (native_dmap.SNAP_*): how close to the map's smooth surface a
-    point must be (× the local half-axis) to take the surface's point.
-    Raises BindError, native.NativeError or native.NativeLibraryError."""
-    check_source(source)
-    check_target(target, source)
-    arm = source.sweep_deform.armature
-    _, _, names, rest = persistence.load(source)
-    inp = bind.BindInputs()
-    inp.object_name, inp.armature_name = target.name, arm.name
-    inp.mesh_to_armature = [list(row) for row in arm.matrix_world.inverted() @ target.matrix_world]
-    inp.positions = rig_io.transform_points(inp.mesh_to_armature, persistence.mesh_positions(target.data))
-    inp.bone_names, inp.rest = names, rest
-    binding_blob, snapped = dmap.bind(inp.positions, snap)
-    rig_blob = bytes(source[persistence.RIG_KEY])
-    rig, binding = native.Rig.deserialize(rig_blob), native.Binding.deserialize(binding_blob)
-    # The source's fitting report (its chains give the anatomical effects' joints), marked.
-    report = json.loads(source.get(persistence.REPORT_KEY, "") or "{}")
-    report.update({"bound_through_map_of": source.name, "snapped_influences": snapped})
-    return inp, bind.BindOutputs(rig, rig_blob, binding, json.dumps(report)), snapped
-
-
 def bind_through_map(targets, source, snap=native_dmap.SNAP_DEFAULT):
     """Binds each of `targets` through the displacement map of the bound `source`, to the same
-    armature. All are bound before any is stored, so an error leaves the file unchanged.
-    Returns the influences snapped to the map's surface, per target."""
+    armature, with the source's rig (its sweeps and key-ellipse edits) and without fitting.
+
+    targets: mesh objects lying where the source's body lies (any resolution, faces optional).
+    snap: sd_dmap_bind's snap (native_dmap.SNAP_*): how close to the map's smooth surface a
+    point must be (× the local half-axis) to take the surface's point.
+    Every target is checked, then all are bound, before any is stored: an error (BindError,
+    native.NativeError, native.NativeLibraryError) leaves the file unchanged. Returns the
+    influences snapped to the map's surface, per target."""
     check_source(source)
-    dmap = fit_map(source)
-    results = [bind_points(t, source, dmap, snap) for t in targets]
+    for t in targets:
+        check_target(t, source)
     arm = source.sweep_deform.armature
-    for t, (inp, out, _) in zip(targets, results):
+    names, rest = persistence.load_skeleton(source)
+    rig_blob = bytes(source[persistence.RIG_KEY])
+    rig = native.Rig.deserialize(rig_blob)
+    # The source's fitting report (its chains give the anatomical effects' joints), marked.
+    report = json.loads(source.get(persistence.REPORT_KEY, "") or "{}")
+    report["bound_through_map_of"] = source.name
+    dmap = fit_map(source)
+    bound = []
+    for t in targets:
+        inp = bind.BindInputs()
+        inp.object_name, inp.armature_name = t.name, arm.name
+        inp.mesh_to_armature = [list(row) for row in arm.matrix_world.inverted() @ t.matrix_world]
+        inp.positions = rig_io.transform_points(inp.mesh_to_armature, persistence.mesh_positions(t.data))
+        inp.bone_names, inp.rest = names, rest
+        binding_blob, snapped = dmap.bind(inp.positions, snap)
+        out = bind.BindOutputs(rig, rig_blob, native.Binding.deserialize(binding_blob),
+                               json.dumps(dict(report, snapped_influences=snapped)))
+        bound.append((t, inp, out, snapped))
+    for t, inp, out, _ in bound:
         bind.store(t, arm, inp, out)
-    return [snapped for _, _, snapped in results]
-
-
-def map_fit_errors(dmap):
-    """(largest RMS, largest max) of the map's fit residuals over its sweeps, rig units."""
-    _, rms, mx = dmap.fit_errors()
-    return float(np.max(rms, initial=0.0)), float(np.max(mx, initial=0.0))
+    return [snapped for _, _, _, snapped in bound]

@@ -101,13 +101,18 @@ def has_blobs(obj):
     return RIG_KEY in obj and BINDING_KEY in obj and REST_POSE_KEY in obj
 
 
+def load_skeleton(obj):
+    """(bone names, rest pose #B*16 float32) the object was bound with; KeyError when none."""
+    rest = np.frombuffer(bytes(obj[REST_POSE_KEY]), dtype=np.float32).copy()
+    return rig_io.decode_names(obj.sweep_deform.bone_names), rest
+
+
 def load(obj):
     """(Rig, Binding, bone names, rest pose #B*16) from the object; raises native.NativeError
     (SD_ERR_CORRUPT_DATA) for a damaged blob, KeyError when there is none."""
     rig = native.Rig.deserialize(bytes(obj[RIG_KEY]))
     binding = native.Binding.deserialize(bytes(obj[BINDING_KEY]))
-    rest = np.frombuffer(bytes(obj[REST_POSE_KEY]), dtype=np.float32).copy()
-    return rig, binding, rig_io.decode_names(obj.sweep_deform.bone_names), rest
+    return (rig, binding) + load_skeleton(obj)
 
 
 # ---- checking ---------------------------------------------------------------------------
