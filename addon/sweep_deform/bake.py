@@ -35,6 +35,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
 from . import bind, cache_files, modifier, native, runtime
+from .operators import ModalProgress
 
 TARGETS = [
     ('SHAPE_KEYS', "Shape Keys", "A new object '<name>_baked' with one shape key per frame, animated"),
@@ -362,7 +363,7 @@ def _describe(error):
 _PATH_OPTIONS = {'PATH_SUPPORTS_BLEND_RELATIVE'} if bpy.app.version >= (4, 5, 0) else set()
 
 
-class OBJECT_OT_sweep_deform_bake(bpy.types.Operator):
+class OBJECT_OT_sweep_deform_bake(ModalProgress, bpy.types.Operator):
     """Bake the Sweep Deform result over a frame range to shape keys on a copy, a PC2 or MDD
     point cache, or Alembic, so the scene plays and renders without the extension"""
     bl_idname = "object.sweep_deform_bake"
@@ -380,7 +381,6 @@ class OBJECT_OT_sweep_deform_bake(bpy.types.Operator):
                             "with progress and Esc to cancel (set when run from the interface)")
     filter_glob: StringProperty(default="*.pc2;*.mdd;*.abc", options={'HIDDEN'})
 
-    _timer = None
     _bake = None
 
     @classmethod
@@ -476,24 +476,14 @@ class OBJECT_OT_sweep_deform_bake(bpy.types.Operator):
 
     def _status(self, context):
         b = self._bake
-        context.window_manager.progress_update(b.index)
-        if context.workspace is not None:
-            context.workspace.status_text_set(f"Sweep Deform: baking frame {b.frame} ({b.index}/{len(b.frames)}), "
-                                              "Esc to cancel")
-
-    def _end_modal(self, context):
-        context.window_manager.progress_end()
-        if context.workspace is not None:
-            context.workspace.status_text_set(None)
-        if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-            self._timer = None
+        self._show_progress(context, b.index,
+                            f"Sweep Deform: baking frame {b.frame} ({b.index}/{len(b.frames)}), Esc to cancel")
 
     def modal(self, context, event):
         bake = self._bake
         if event.type == 'ESC':
             bake.cancel()
-            self._end_modal(context)
+            self._end(context)
             self.report({'WARNING'}, "Sweep Deform: bake cancelled, nothing written")
             return {'CANCELLED'}
         if event.type != 'TIMER':
@@ -506,17 +496,17 @@ class OBJECT_OT_sweep_deform_bake(bpy.types.Operator):
         except Exception as e:  # whatever failed, nothing half-made stays
             if not bake.done:
                 bake.cancel()
-            self._end_modal(context)
+            self._end(context)
             self.report({'ERROR'}, f"Sweep Deform: {_describe(e)}")
             return {'CANCELLED'}
-        self._end_modal(context)
+        self._end(context)
         return self._report_done(bpy.data.objects[bake.obj_name], bake.frames, where)
 
     def cancel(self, context):
         """Blender ends the operator (the window closes, a new file is loaded)."""
         if self._bake is not None and not self._bake.done:
             self._bake.cancel()
-        self._end_modal(context)
+        self._end(context)
 
 
 register, unregister = bpy.utils.register_classes_factory((OBJECT_OT_sweep_deform_bake,))

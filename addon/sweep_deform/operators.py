@@ -26,7 +26,27 @@ def _mesh_object(context):
     return obj if obj is not None and obj.type == 'MESH' else None
 
 
-class _Binder:
+class ModalProgress:
+    """The progress bar, status-bar text and timer of a modal operator that works in steps
+    (binding, baking): `_show_progress` at each step, `_end` once, whatever the outcome."""
+
+    _timer = None
+
+    def _show_progress(self, context, value, text):
+        context.window_manager.progress_update(value)
+        if context.workspace is not None and not bpy.app.background:
+            context.workspace.status_text_set(text)
+
+    def _end(self, context):
+        context.window_manager.progress_end()
+        if context.workspace is not None and not bpy.app.background:
+            context.workspace.status_text_set(None)
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+
+
+class _Binder(ModalProgress):
     """Shared by the add and bind operators."""
 
     armature: StringProperty(
@@ -34,7 +54,6 @@ class _Binder:
         description="Name of the armature to bind to (default: the mesh's Armature modifier, "
                     "its Sweep Deform armature, or its parent)")
 
-    _timer = None
     _thread = None
 
     @classmethod
@@ -52,17 +71,7 @@ class _Binder:
 
     def _progress(self, context, stage):
         value, text = _STAGES[stage]
-        context.window_manager.progress_update(value)
-        if context.workspace is not None and not bpy.app.background:
-            context.workspace.status_text_set(f"Sweep Deform: {text}… (Esc to cancel)")
-
-    def _end(self, context):
-        context.window_manager.progress_end()
-        if context.workspace is not None and not bpy.app.background:
-            context.workspace.status_text_set(None)
-        if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-            self._timer = None
+        self._show_progress(context, value, f"Sweep Deform: {text}… (Esc to cancel)")
 
     def _prepare(self, context):
         ok, why = native.available()
