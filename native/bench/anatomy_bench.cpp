@@ -22,7 +22,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <map>
 #include <memory>
 
@@ -104,11 +103,8 @@ BENCHMARK(BM_SweepsWithAllEffects)->UseRealTime()->Unit(benchmark::kMillisecond)
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::string data = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/";
-    if (!std::filesystem::exists(data + "mh_male_game_engine.glb")) {
-        std::printf("anatomy_bench: ../shared/data not found; nothing to measure (skipped)\n");
-        return 0;
-    }
+    const std::string data = sd::bench::humans_dir_or_skip("anatomy_bench");
+    if (data.empty()) return 0;
     benchmark::Initialize(&argc, argv);
     Case c;
     const auto t0 = std::chrono::steady_clock::now();

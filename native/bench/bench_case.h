@@ -11,6 +11,8 @@
 
 #include <benchmark/benchmark.h>
 
+#include <cstdio>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -19,6 +21,15 @@ namespace sd::bench {
 
 using testing::bind_fitted;
 using testing::fit_input;
+
+/// The shared data's humans/ folder (SWEEPDEFORM_SHARED_DATA_DIR), or "" after printing that
+/// `bench` has nothing to measure because the data is not there.
+inline std::string humans_dir_or_skip(const char* bench) {
+    const std::string dir = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/";
+    if (std::filesystem::exists(dir + "mh_male_game_engine.glb")) return dir;
+    std::printf("%s: ../shared/data not found; nothing to measure (skipped)\n", bench);
+    return "";
+}
 
 /// The benchmarks' character and motion: MakeHuman male (humans/mh_male_game_engine.glb in
 /// the shared data) refined one Catmull–Clark level (80,270 vertices), and `frames` poses of

@@ -14,7 +14,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 
 namespace {
 
@@ -32,11 +31,8 @@ double peak_rss_mib() {
 
 int main(int argc, char** argv) {
     const int levels = argc > 1 ? std::atoi(argv[1]) : 3;
-    const std::string data = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/";
-    if (!std::filesystem::exists(data + "mh_male_game_engine.glb")) {
-        std::printf("scale_bench: ../shared/data not found; nothing to measure (skipped)\n");
-        return 0;
-    }
+    const std::string data = sd::bench::humans_dir_or_skip("scale_bench");
+    if (data.empty()) return 0;
     auto t0 = std::chrono::steady_clock::now();
     const sd::io::Character c =
         sd::io::refine_catmull_clark(sd::io::load_gltf_character(data + "mh_male_game_engine.glb"), levels);

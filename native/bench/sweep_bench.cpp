@@ -20,7 +20,6 @@
 
 #include <chrono>
 #include <cstdio>
-#include <filesystem>
 #include <map>
 #include <memory>
 
@@ -84,11 +83,8 @@ BENCHMARK(BM_FitAndBind)->UseRealTime()->Unit(benchmark::kMillisecond)->Iteratio
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::string data = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/";
-    if (!std::filesystem::exists(data + "mh_male_game_engine.glb")) {
-        std::printf("sweep_bench: ../shared/data not found; nothing to measure (skipped)\n");
-        return 0;
-    }
+    const std::string data = sd::bench::humans_dir_or_skip("sweep_bench");
+    if (data.empty()) return 0;
     benchmark::Initialize(&argc, argv);
     Case c;
     const auto t0 = std::chrono::steady_clock::now();
