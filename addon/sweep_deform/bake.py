@@ -34,7 +34,8 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, IntProperty, StringProperty
 
-from . import bind, cache_files, modifier, native, runtime
+from . import bind, cache_files, modifier, runtime
+from .core import native
 from .operators import ModalProgress
 
 TARGETS = [

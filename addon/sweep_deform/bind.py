@@ -18,7 +18,8 @@ import uuid
 
 import numpy as np
 
-from . import modifier, native, persistence, rig_io, transforms
+from . import modifier, persistence, rig_io, transforms
+from .core import native
 
 #: Influences per vertex read from the vertex groups for the fitting.
 SKIN_SLOTS = 8

@@ -13,7 +13,8 @@ store stage (bind.store), so the result saves, reloads, undoes and un-binds like
 
 import json
 
-from . import bind, native, native_dmap, persistence, rig_io, runtime
+from . import bind, persistence, rig_io, runtime
+from .core import native, native_dmap
 
 
 def check_source(source):

@@ -6,7 +6,8 @@ operators. Undoable; in the Object › Sweep Deform menu (and so in F3 search)."
 import bpy
 from bpy.props import FloatProperty
 
-from . import bind, bind_through_map, native, native_dmap
+from . import bind, bind_through_map
+from .core import native, native_dmap
 from .operators import VIEW3D_MT_sweep_deform
 
 

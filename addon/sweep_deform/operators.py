@@ -15,7 +15,8 @@ import threading
 import bpy
 from bpy.props import EnumProperty, IntProperty, StringProperty
 
-from . import bind, native
+from . import bind
+from .core import native
 
 _STAGES = {"read": (0, "reading the mesh and skeleton"), "fit": (15, "fitting key ellipses"),
            "bind": (85, "binding vertices"), "store": (95, "storing the binding")}

@@ -7,7 +7,8 @@ keyframed). The editing part is also in the 3D viewport's sidebar (Sweep Deform 
 
 import bpy
 
-from . import key_edit, modifier, native, operators, runtime, rig_io
+from . import key_edit, modifier, operators, runtime, rig_io
+from .core import native
 
 
 def _relevant(obj):

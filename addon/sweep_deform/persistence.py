@@ -18,7 +18,8 @@
 
 import numpy as np
 
-from . import native, rig_io
+from . import rig_io
+from .core import native
 
 RIG_KEY = "_sweep_deform_rig"
 BINDING_KEY = "_sweep_deform_binding"

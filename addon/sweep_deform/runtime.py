@@ -21,7 +21,8 @@ import json
 
 import numpy as np
 
-from . import modifier, native, persistence, rig_io, transforms
+from . import modifier, persistence, rig_io, transforms
+from .core import native
 
 _cache = {}
 
