@@ -15,7 +15,7 @@ def installed_dir():
 
 def test_installed_from_the_zip_with_its_libraries():
     d = installed_dir()
-    for f in ("blender_manifest.toml", "__init__.py", "native.py", "lib/libsweepdeform.so.0.1.0",
+    for f in ("blender_manifest.toml", "__init__.py", "core/native.py", "lib/libsweepdeform.so.0.1.0",
               "lib/libtbb.so.12"):
         assert os.path.isfile(os.path.join(d, f)), f
     assert helpers.addon().__name__ == helpers.MODULE
