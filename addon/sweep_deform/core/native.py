@@ -80,6 +80,8 @@ RigP = ctypes.POINTER(_RigT)
 BindingP = ctypes.POINTER(_BindingT)
 DeformerP = ctypes.POINTER(_DeformerT)
 FitResultP = ctypes.POINTER(_FitResultT)
+
+
 class _AnatomyT(_Opaque):
     pass
 
@@ -297,8 +299,6 @@ def available():
     return True, lib.sd_library_version().decode()
 
 
-
-
 def _check(name, status):
     if status != SD_OK:
         message = library().sd_last_error().decode("utf-8", "replace")
@@ -365,7 +365,8 @@ class Rig(_Handle):
     @classmethod
     def create(cls, parents, rest, heads, tails):
         """parents #B int, rest #B*16 column-major, heads/tails #B*3."""
-        parents, rest, heads, tails = _i32(parents).ravel(), _f32(rest).ravel(), _f32(heads).ravel(), _f32(tails).ravel()
+        parents, rest = _i32(parents).ravel(), _f32(rest).ravel()
+        heads, tails = _f32(heads).ravel(), _f32(tails).ravel()
         B = parents.size
         _expect_size("rest", rest, 16 * B)
         _expect_size("heads", heads, 3 * B)

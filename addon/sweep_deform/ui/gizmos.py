@@ -22,9 +22,12 @@ import math
 import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatVectorProperty, IntProperty
+from bpy_extras.view3d_utils import location_3d_to_region_2d, region_2d_to_location_3d
 from mathutils import Matrix, Vector
 
-from . import key_edit, overlay, runtime
+from ..blender import deformer_cache, key_ellipses
+from ..core import key_edit
+from . import overlay
 
 TOOL_ID = "sweep_deform.edit_key_ellipses"
 _MODE_ITEMS = [
@@ -85,12 +88,12 @@ class Edit:
         s = obj.sweep_deform
         self.obj_name = obj.name
         self.sweep, self.key = sweep, key
-        self.state = runtime.key_state(obj, sweep, key)
+        self.state = key_ellipses.key_state(obj, sweep, key)
         mine = [(i, c) for i, c in key_corrections(s, sweep, key) if not c.mute]
         found = key_edit.find_correction([c.angle for _, c in mine], self.state["angle"], s.merge_angle)
         self.created = found is None
         if self.created:
-            e = runtime.entry(obj)
+            e = deformer_cache.entry(obj)
             angle = key_edit.edit_angle(self.state["angle"], self.state["rest_angle"], s.merge_angle)
             start = e.rig.key_correction_at(sweep, key, angle).astype(np.float64)
             item = s.corrections.add()
@@ -148,7 +151,6 @@ def autokey(context, obj, index):
 
 
 def _region_point(region, rv3d, world):
-    from bpy_extras.view3d_utils import location_3d_to_region_2d
     p = location_3d_to_region_2d(region, rv3d, Vector(world))
     return None if p is None else np.array(p, np.float64)
 
@@ -239,7 +241,6 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
         return {'RUNNING_MODAL'}
 
     def _drag(self, context, event):
-        from bpy_extras.view3d_utils import region_2d_to_location_3d
         mouse = np.array((event.mouse_region_x, event.mouse_region_y), np.float64)
         mode = self.mode
         if mode == "MOVE":
@@ -251,7 +252,7 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
         elif mode in ("MOVE_X", "MOVE_Y", "MOVE_Z"):
             # The tip is `length` armature units along the axis: the drag comes out in those units.
             amount = 0.0 if self._tip2d is None else key_edit.axis_drag(self._mouse0, mouse, self._center2d,
-                                                                       self._tip2d, self._length)
+                                                                        self._tip2d, self._length)
             self.amount = (amount, 0.0, 0.0)
         elif mode.startswith("ROTATE_"):
             amount = key_edit.dial_drag(self._center2d, self._mouse0, mouse, self._facing)
@@ -260,7 +261,7 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
             self.amount = (amount, 0.0, 0.0)
         else:
             amount = 1.0 if self._tip2d is None else key_edit.scale_drag(self._mouse0, mouse, self._center2d,
-                                                                        self._tip2d)
+                                                                         self._tip2d)
             self.amount = (amount, 0.0, 0.0)
         if event.shift and mode != "MOVE":  # precision
             a0 = 1.0 if mode.startswith("SCALE_") else 0.0
@@ -305,7 +306,7 @@ class OBJECT_OT_sweep_deform_select_key(bpy.types.Operator):
             self.report({'ERROR'}, "Sweep Deform: no such key ellipse")
             return {'CANCELLED'}
         if self.sweep >= 0:
-            e = runtime.entry(obj)
+            e = deformer_cache.entry(obj)
             if e.rig is None or self.key >= e.rig.key_count(self.sweep):
                 self.report({'ERROR'}, "Sweep Deform: no such key ellipse")
                 return {'CANCELLED'}
@@ -393,7 +394,7 @@ class VIEW3D_GGT_sweep_deform_key(bpy.types.GizmoGroup):
     def refresh(self, context):
         obj = context.object
         s = obj.sweep_deform
-        data = runtime.overlay_data(obj)
+        data = key_ellipses.overlay_data(obj)
         if not data or s.active_sweep >= len(data) or s.active_key >= len(data[s.active_sweep]["centers"]):
             for gz in self.gizmos:
                 gz.hide = True

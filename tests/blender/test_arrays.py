@@ -1,5 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The numpy-only layer (rig_io.py): no bpy in it, plain arrays in and out."""
+"""The numpy-only layer (core/arrays.py, core/fit_report.py): plain arrays in and out.
+(That core/ imports no bpy is checked without Blender, in tests/addon_core.)"""
 
 import ast
 import inspect
@@ -9,10 +10,10 @@ import pytest
 
 import helpers
 
-rig_io = helpers.sub("rig_io")
+arrays = helpers.sub("core.arrays")
 
 
-@pytest.mark.parametrize("name", ["rig_io", "cache_files"])
+@pytest.mark.parametrize("name", ["core.arrays", "core.cache_files"])
 def test_numpy_layer_imports_no_bpy(name):
     tree = ast.parse(inspect.getsource(helpers.sub(name)))
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
@@ -22,19 +23,19 @@ def test_numpy_layer_imports_no_bpy(name):
 
 def test_dense_weights_keep_the_heaviest_bones():
     # vertex 0: groups 0 (0.2), 1 (0.5), 2 (0.3, no bone); vertex 1: none; vertex 2: group 1 (1.0)
-    ids, w = rig_io.dense_weights_from_flat([3, 0, 1], [0, 1, 2, 1], [0.2, 0.5, 0.3, 1.0], [4, 7, -1], 2)
+    ids, w = arrays.dense_weights_from_flat([3, 0, 1], [0, 1, 2, 1], [0.2, 0.5, 0.3, 1.0], [4, 7, -1], 2)
     np.testing.assert_array_equal(ids, [[7, 4], [-1, -1], [7, -1]])
     np.testing.assert_allclose(w, [[0.5, 0.2], [0, 0], [1.0, 0]])
     assert ids.dtype == np.int32 and w.dtype == np.float32
 
 
 def test_pose_order_and_gather():
-    assert rig_io.pose_order(["a", "b"], ["a", "b"]) is None
-    order = rig_io.pose_order(["b", "a"], ["a", "b", "c"])
+    assert arrays.pose_order(["a", "b"], ["a", "b"]) is None
+    order = arrays.pose_order(["b", "a"], ["a", "b", "c"])
     m = np.arange(48, dtype=np.float32)
-    np.testing.assert_array_equal(rig_io.gather_pose(m, order), np.concatenate([m[16:32], m[:16]]))
+    np.testing.assert_array_equal(arrays.gather_pose(m, order), np.concatenate([m[16:32], m[:16]]))
     try:
-        rig_io.pose_order(["x"], ["a"])
+        arrays.pose_order(["x"], ["a"])
         assert False
     except KeyError as e:
         assert "x" in str(e)
@@ -45,19 +46,19 @@ def test_offsets_in_mesh_space():
     deformed = rng.normal(size=(5, 3)).astype(np.float32)
     rest = rng.normal(size=(5, 3)).astype(np.float32)
     out, scratch = np.empty_like(rest), np.empty_like(rest)
-    np.testing.assert_array_equal(rig_io.offsets_into(deformed, rest, None, out, scratch), deformed - rest)
+    np.testing.assert_array_equal(arrays.offsets_into(deformed, rest, None, out, scratch), deformed - rest)
     scale = np.diag([2.0, 2.0, 2.0])  # armature = 2 x mesh: mesh offsets are half
     to_mesh = np.linalg.inv(scale).T.astype(np.float32)
-    np.testing.assert_allclose(rig_io.offsets_into(deformed, rest, to_mesh, out, scratch), (deformed - rest) / 2, rtol=1e-6)
+    np.testing.assert_allclose(arrays.offsets_into(deformed, rest, to_mesh, out, scratch), (deformed - rest) / 2, rtol=1e-6)
 
 
 def test_fingerprints_see_connectivity_not_just_counts():
-    a = rig_io.topology_fingerprint([0, 1, 1, 2], [0, 1, 2], [3])
-    b = rig_io.topology_fingerprint([0, 1, 1, 2], [0, 2, 1], [3])
-    assert a != b and a == rig_io.topology_fingerprint(np.array([0, 1, 1, 2]), [0, 1, 2], [3])
+    a = arrays.topology_fingerprint([0, 1, 1, 2], [0, 1, 2], [3])
+    b = arrays.topology_fingerprint([0, 1, 1, 2], [0, 2, 1], [3])
+    assert a != b and a == arrays.topology_fingerprint(np.array([0, 1, 1, 2]), [0, 1, 2], [3])
 
 
 def test_sweep_labels_prefer_the_fitting_report():
     report = '{"chains": [{"name": "arm_l", "sweep": 1}, {"name": "tail", "sweep": -1}]}'
-    labels = rig_io.sweep_labels([[0, 1], [1, 2, 2]], ["a", "b", "c"], report)
+    labels = helpers.sub("core.fit_report").sweep_labels([[0, 1], [1, 2, 2]], ["a", "b", "c"], report)
     assert labels == ["a – b", "arm_l"]
