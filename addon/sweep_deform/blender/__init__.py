@@ -13,7 +13,7 @@ No module here imports ui/.
     frame            one frame of one character: pose → core → offsets
     corrections      key-ellipse corrections: properties → core; removing one
     anatomy          elbows and knees; the native anatomical effects kept in step
-    key_ellipses     the key ellipses of the shown pose, for the panel, overlay and gizmos
+    key_ellipses     the key ellipses of the shown pose (panel, overlay, gizmos); one key edit
     modifier         the "Sweep Deform" Geometry Nodes modifier and its offset attribute
     bake             bake outputs: shape keys, PC2/MDD, Alembic
     handlers         depsgraph, frame, load and undo handlers

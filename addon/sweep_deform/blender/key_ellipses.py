@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The key ellipses of a bound character in the pose it shows (Sect. 4.1, 4.2), for the
 panel, the overlay and the gizmos: one key's editing state, every key and sampled sweep of
-the pose (cached per pose and corrections), and the key to select when editing starts."""
+the pose (cached per pose and corrections), the key to select when editing starts, and one
+edit of a key (:class:`Edit`: the correction property it changes), as gizmos and scripts make it."""
 
 import bpy
 import numpy as np
@@ -101,3 +102,92 @@ def first_joint_key(obj):
             if parents[k] >= 0:
                 return sweep, k
     return 0, 0
+
+
+# ---- the edit, as gizmos and scripts make it -------------------------------------------------
+
+
+def selected_key(obj, sweep=-1, key=-1):
+    s = obj.sweep_deform
+    sweep = s.active_sweep if sweep < 0 else sweep
+    key = s.active_key if key < 0 else key
+    return sweep, key
+
+
+def key_corrections(settings, sweep, key):
+    """[(index in the collection, item)] of one key's corrections."""
+    return [(i, c) for i, c in enumerate(settings.corrections) if c.sweep == sweep and c.key == key]
+
+
+def write_values(item, values):
+    v = [float(x) for x in values]
+    if tuple(item.offset) != tuple(v[0:3]):
+        item.offset = v[0:3]
+    if tuple(item.rotation) != tuple(v[3:6]):
+        item.rotation = v[3:6]
+    if item.scale_a != v[6]:
+        item.scale_a = v[6]
+    if item.scale_b != v[7]:
+        item.scale_b = v[7]
+
+
+def item_values(item):
+    return key_edit.as_values(item.offset, item.rotation, item.scale_a, item.scale_b)
+
+
+class Edit:
+    """One edit of one key ellipse in the current pose: the correction it changes (found
+    within the merge angle, else created at the current angle, or at the rest angle when
+    near it, starting from the interpolated value so nothing jumps) and where it started."""
+
+    def __init__(self, obj, sweep, key):
+        s = obj.sweep_deform
+        self.obj_name = obj.name
+        self.sweep, self.key = sweep, key
+        self.state = key_state(obj, sweep, key)
+        mine = [(i, c) for i, c in key_corrections(s, sweep, key) if not c.mute]
+        found = key_edit.find_correction([c.angle for _, c in mine], self.state["angle"], s.merge_angle)
+        self.created = found is None
+        if self.created:
+            e = deformer_cache.entry(obj)
+            angle = key_edit.edit_angle(self.state["angle"], self.state["rest_angle"], s.merge_angle)
+            start = e.rig.key_correction_at(sweep, key, angle).astype(np.float64)
+            item = s.corrections.add()
+            item.sweep, item.key, item.angle = sweep, key, angle
+            write_values(item, start)
+            self.index = len(s.corrections) - 1
+        else:
+            self.index = mine[found][0]
+        s.active_correction = self.index
+        item = s.corrections[self.index]
+        self.start = item_values(item)
+        self.max_offset = key_edit.max_offset(self.state["rest_half_axes"])
+
+    @property
+    def obj(self):
+        return bpy.data.objects[self.obj_name]
+
+    def set(self, mode, amount):
+        """The correction = the start with one edit of `amount` applied (see key_edit.apply)."""
+        values = key_edit.apply(mode, self.start, amount, self.state["rotation"])
+        values = key_edit.clamp_values(values, self.max_offset)
+        write_values(self.obj.sweep_deform.corrections[self.index], values)
+        return values
+
+    def cancel(self):
+        s = self.obj.sweep_deform
+        if self.created:
+            s.corrections.remove(self.index)
+            s.active_correction = max(0, min(s.active_correction, len(s.corrections) - 1))
+            self.obj.update_tag()
+        else:
+            write_values(s.corrections[self.index], self.start)
+
+
+def apply_edit(obj, mode, amount, sweep=-1, key=-1):
+    """Applies one edit to a key ellipse of `obj` in its current pose (what a gizmo drag
+    ends with). Returns the correction's new values."""
+    sweep, key = selected_key(obj, sweep, key)
+    if sweep < 0 or key < 0:
+        raise ValueError("no key ellipse is selected")
+    return Edit(obj, sweep, key).set(mode, amount)
