@@ -2,7 +2,10 @@
 """The add-on's modules and their imports, read with ``ast`` (nothing of the add-on runs)."""
 
 import ast
+import importlib
 import os
+import sys
+import types
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 ADDON = os.path.join(REPO, "addon", "sweep_deform")
@@ -21,6 +24,16 @@ def module_files():
                 name = parts if f == "__init__.py" else parts + [f[:-3]]
                 found[".".join(name)] = os.path.join(folder, f)
     return found
+
+
+def import_core(name):
+    """The module core/<name> in plain Python. The add-on's __init__.py (which registers with
+    Blender) is not run: the package is an empty module on the add-on's folder."""
+    if PACKAGE not in sys.modules:
+        package = types.ModuleType(PACKAGE)
+        package.__path__ = [ADDON]
+        sys.modules[PACKAGE] = package
+    return importlib.import_module(f"{PACKAGE}.core.{name}")
 
 
 def _is_package(name, files):

@@ -1,24 +1,12 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The numpy-only layer (core/arrays.py, core/fit_report.py): plain arrays in and out.
-(That core/ imports no bpy is checked without Blender, in tests/addon_core.)"""
-
-import ast
-import inspect
+"""The numpy-only layer (core/arrays.py, core/fit_report.py), without Blender: plain arrays in
+and out. (That core/ imports no bpy is test_core_without_blender.py.)"""
 
 import numpy as np
-import pytest
 
-import helpers
+import addon_modules
 
-arrays = helpers.sub("core.arrays")
-
-
-@pytest.mark.parametrize("name", ["core.arrays", "core.cache_files"])
-def test_numpy_layer_imports_no_bpy(name):
-    tree = ast.parse(inspect.getsource(helpers.sub(name)))
-    imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
-                for a in n.names} | {(n.module or "").split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
-    assert "bpy" not in imported and "mathutils" not in imported
+arrays = addon_modules.import_core("arrays")
 
 
 def test_dense_weights_keep_the_heaviest_bones():
@@ -49,7 +37,8 @@ def test_offsets_in_mesh_space():
     np.testing.assert_array_equal(arrays.offsets_into(deformed, rest, None, out, scratch), deformed - rest)
     scale = np.diag([2.0, 2.0, 2.0])  # armature = 2 x mesh: mesh offsets are half
     to_mesh = np.linalg.inv(scale).T.astype(np.float32)
-    np.testing.assert_allclose(arrays.offsets_into(deformed, rest, to_mesh, out, scratch), (deformed - rest) / 2, rtol=1e-6)
+    np.testing.assert_allclose(arrays.offsets_into(deformed, rest, to_mesh, out, scratch), (deformed - rest) / 2,
+                               rtol=1e-6)
 
 
 def test_fingerprints_see_connectivity_not_just_counts():
@@ -60,5 +49,5 @@ def test_fingerprints_see_connectivity_not_just_counts():
 
 def test_sweep_labels_prefer_the_fitting_report():
     report = '{"chains": [{"name": "arm_l", "sweep": 1}, {"name": "tail", "sweep": -1}]}'
-    labels = helpers.sub("core.fit_report").sweep_labels([[0, 1], [1, 2, 2]], ["a", "b", "c"], report)
+    labels = addon_modules.import_core("fit_report").sweep_labels([[0, 1], [1, 2, 2]], ["a", "b", "c"], report)
     assert labels == ["a – b", "arm_l"]
