@@ -16,8 +16,11 @@ endforeach()
 
 file(REMOVE_RECURSE ${STAGE})
 file(MAKE_DIRECTORY ${STAGE}/lib)
-file(GLOB sources ${ADDON_DIR}/*.py ${ADDON_DIR}/*.toml ${ADDON_DIR}/*.md)
-file(COPY ${sources} DESTINATION ${STAGE})
+# The add-on's files with their folders (core/, blender/, ui/).
+file(GLOB_RECURSE sources RELATIVE ${ADDON_DIR} ${ADDON_DIR}/*.py ${ADDON_DIR}/*.toml ${ADDON_DIR}/*.md)
+foreach(source ${sources})
+  configure_file(${ADDON_DIR}/${source} ${STAGE}/${source} COPYONLY)
+endforeach()
 set(ours ${LIBRARY} ${EXTRA_LIBRARIES})
 foreach(lib ${ours})
   get_filename_component(name ${lib} NAME)

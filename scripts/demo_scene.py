@@ -31,8 +31,8 @@ import numpy as np
 from mathutils import Vector
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(REPO, "tests", "blender"))
-import install  # noqa: E402  (the tests' installer: the same path a user takes)
+sys.path.insert(0, os.path.join(REPO, "scripts", "blender_support"))
+import install  # noqa: E402  (the installer the tests use too: the same path a user takes)
 import limb_volume  # noqa: E402  (closed volume of a skin region, numpy only)
 
 METHODS = [
@@ -396,7 +396,7 @@ def time_methods(scene, columns, frames, rounds=5):
     method's body visible, and once with no body at all ("armature only": armature evaluation
     and scene overhead, which every method pays). Rounds alternate between the methods so that a
     busy machine slows them alike; each figure is the median over the rounds."""
-    from bl_ext.user_default.sweep_deform import modifier  # noqa: E402 (installed by now)
+    from bl_ext.user_default.sweep_deform.blender import modifier  # noqa: E402 (installed by now)
     sweep_mods = {col["key"]: modifier.find(col["body"]) for col in columns}
 
     def run(active):
@@ -463,7 +463,8 @@ def write_report(out_dir, info, poses, timing, timing_frames):
              "| method | ms per frame |", "|---|---|"]
     lines += [f"| {label} | {timing[key]:.2f} |" for key, label in [("armature_only", "armature only")] + METHODS]
     for pose in poses:
-        lines += ["", f"## {pose['name']} (frame {pose['frame']})", "", f"![{pose['name']}](poses/{pose['name']}.png)", ""]
+        lines += ["", f"## {pose['name']} (frame {pose['frame']})", "",
+                  f"![{pose['name']}](poses/{pose['name']}.png)", ""]
         limbs = sorted(next(iter(pose["methods"].values()))["limb_volume_change_percent"])
         joints_ = sorted(next(iter(pose["methods"].values()))["intersecting_pairs"])
         lines += ["| method | body volume | " + " | ".join(f"{n} volume" for n in limbs) +
@@ -489,7 +490,7 @@ def main():
     os.makedirs(os.path.join(out_dir, "motion"), exist_ok=True)
     arm, body = load_character(os.path.abspath(args.character), args.action)
     install.install(args.zip)
-    from bl_ext.user_default.sweep_deform import native  # noqa: E402 (after install)
+    from bl_ext.user_default.sweep_deform.core import native  # noqa: E402 (after install)
 
     scene = bpy.context.scene
     action = arm.animation_data.action

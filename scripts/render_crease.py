@@ -6,7 +6,7 @@ Deform's anatomical effects (the folded crease), for docs/images:
             [--character FILE.blend] [--degrees 150]
 
 Binds with the automatic fitting (bpy.ops.object.sweep_deform_add), turns the effects on, poses
-the elbow with tests/blender/flexion.py and renders (Workbench) two views side by side: from the
+the elbow with scripts/blender_support/flexion.py and renders (Workbench) two views side by side: from the
 character's left (+X, as the demo's close-ups) and from the front, slightly from below.
 """
 
@@ -19,7 +19,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
-sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tests", "blender"))
+sys.path.insert(0, os.path.join(HERE, "blender_support"))
 import demo_scene  # noqa: E402  (character loading, installation, render settings)
 import flexion  # noqa: E402
 import install  # noqa: E402

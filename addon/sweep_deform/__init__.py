@@ -1,27 +1,23 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Sweep Deform: sweep-based deformation of rigged humans (Hyun et al. 2005) as a modifier.
 
-Layers (dependencies point down):
+This file only registers. The add-on stands on three floors, and every import points down
+(a test fails on an import circle, another on ``bpy`` in core/):
 
-    operators, panel, handlers, properties      Blender glue (bpy)
-    bake                                        bake to shape keys, PC2/MDD (cache_files), Alembic
-    gizmos, overlay                             key-ellipse editing in the viewport (Sect. 4.2)
-    key_edit                                    numpy only: corrections, gizmo math, picking
-    bind, runtime, persistence, modifier        Blender glue: binding, one frame, the .blend
-    bind_through_map                            binding through a bound character's displacement map
-    bake                                        Blender glue: bake to shape keys, PC2/MDD, Alembic
-    rig_io, cache_files                         numpy only: arrays between Blender and the core,
-                                                point-cache files
-    transforms                                  plain Python: are the transforms usable? (messages)
-    native, native_dmap                         ctypes bindings of libsweepdeform(_dmap) (lib/)
+    ui/        what the artist sees and does: operators, panel, menus, overlay, gizmos
+    blender/   Blender's data ↔ the core: properties, binding, one frame, the deformer
+               cache, the .blend, the modifier, bake outputs, handlers
+    core/      no bpy: ctypes bindings of libsweepdeform(_dmap), arrays, checks, the fitting
+               report, key-editing maths, point-cache files
 
-See docs/addon.md in the repository for how the modifier works and what it costs per frame.
+See docs/architecture.md (the add-on's floors and one frame's path) and docs/addon.md.
 """
 
-from . import (bake, gizmos, handlers, operator_bind_through_map, operators, overlay, panel, persistence,
-               properties)
+from .blender import handlers, persistence, properties
+from .ui import bake_operator, bind_operators, gizmos, key_operators, map_operator, menu, overlay, panel
 
-_modules = (properties, operators, operator_bind_through_map, bake, gizmos, panel, handlers, persistence, overlay)
+_modules = (properties, bind_operators, key_operators, menu, map_operator, bake_operator, gizmos, panel, handlers,
+            persistence, overlay)
 
 
 def register():

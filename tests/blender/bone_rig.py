@@ -61,7 +61,7 @@ def _size_key(positions, in_chain_vertex, center, frame, slab, reach):
 
 def make_bone_rig(inp, chains, intermediate=2):
     """(rig, sweep_ids, sweep_weights, bone_ids, bone_weights, report) for bind.BindInputs."""
-    from bl_ext.user_default.sweep_deform import native  # the add-on's own binding
+    from bl_ext.user_default.sweep_deform.core import native  # the add-on's own binding
     names = list(inp.bone_names)
     index = {n: i for i, n in enumerate(names)}
     heads = np.asarray(inp.heads, np.float64).reshape(-1, 3)

@@ -9,13 +9,13 @@ import helpers
 
 
 def pytest_report_header(config):
-    ok, version = helpers.sub("native").available()
+    ok, version = helpers.sub("core.native").available()
     return [f"Blender {bpy.app.version_string}, libsweepdeform {version if ok else 'UNAVAILABLE: ' + version}"]
 
 
 @pytest.fixture(autouse=True)
 def fresh_file():
-    bind = helpers.sub("bind")
+    bind = helpers.sub("blender.binding")
     fitter = bind.fitter
     bpy.ops.wm.read_homefile(use_empty=True)
     yield

@@ -54,7 +54,7 @@ def start():
 def wait_pc2():
     if not os.path.exists(os.path.join(OUT, "gui.pc2")):
         return 0.2
-    result["pc2_samples"] = helpers.sub("cache_files").read_pc2(os.path.join(OUT, "gui.pc2"))[2].shape[0]
+    result["pc2_samples"] = helpers.sub("core.cache_files").read_pc2(os.path.join(OUT, "gui.pc2"))[2].shape[0]
     result["frame_after"] = bpy.context.scene.frame_current
     with bpy.context.temp_override(window=window()):
         result["invoke_long"] = list(bpy.ops.object.sweep_deform_bake(

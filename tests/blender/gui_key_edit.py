@@ -44,7 +44,7 @@ def window_and_view():
 
 def elbow_key(obj):
     """(sweep, key) of the left elbow's joint key."""
-    e = helpers.sub("runtime").entry(obj)
+    e = helpers.sub("blender.deformer_cache").entry(obj)
     names = e.bone_names
     for s in range(e.rig.sweep_count):
         keys = e.rig.keys(s)
@@ -68,7 +68,7 @@ def projected_keys(obj, region, rv3d):
     """Window pixels (x, y from the bottom-left) of points on every drawn key ellipse."""
     from bpy_extras.view3d_utils import location_3d_to_region_2d
     from mathutils import Vector
-    overlay = helpers.sub("overlay")
+    overlay = helpers.sub("ui.overlay")
     # Regions drawn over the viewport (sidebar, toolbar, headers) hide what is under them.
     area = next(a for a in bpy.context.window_manager.windows[0].screen.areas
                 if any(r.as_pointer() == region.as_pointer() for r in a.regions))
@@ -136,7 +136,7 @@ def step2():
                 a.spaces[0].context = 'MODIFIER'
             except TypeError:
                 pass
-    out["gizmos_poll"] = bool(helpers.sub("gizmos").VIEW3D_GGT_sweep_deform_key.poll(bpy.context)) \
+    out["gizmos_poll"] = bool(helpers.sub("ui.gizmos").VIEW3D_GGT_sweep_deform_key.poll(bpy.context)) \
         if bpy.context.object else None
     grab("edit_rest.png", obj)
     frame("elbow_bend")
@@ -198,10 +198,10 @@ def step3b():
     # A real drag of a gizmo, with simulated mouse events: hover the key's center (the move
     # ring), press, drag 40 px to the right, release.
     win, area, region = window_and_view()
-    st = helpers.sub("runtime").key_state(obj, obj.sweep_deform.active_sweep, obj.sweep_deform.active_key)
+    st = helpers.sub("blender.key_ellipses").key_state(obj, obj.sweep_deform.active_sweep, obj.sweep_deform.active_key)
     from bpy_extras.view3d_utils import location_3d_to_region_2d
     from mathutils import Vector
-    m = helpers.sub("overlay").world_matrix(obj)
+    m = helpers.sub("ui.overlay").world_matrix(obj)
     c = location_3d_to_region_2d(region, area.spaces[0].region_3d, Vector(m[:3, :3] @ st["shown_center"] + m[:3, 3]))
     x, y = int(region.x + c.x), int(region.y + c.y)
     out["drag_from"] = [x, y]
@@ -249,7 +249,7 @@ def after_drag():
     # A click on another key ellipse selects it (the tool's keymap): the wrist key of the
     # left arm (the last key of the elbow's sweep), at a point of its drawn ellipse.
     sweep = s.active_sweep
-    loops = [(k, pts) for sw, k, pts in helpers.sub("overlay").key_loops(obj) if sw == sweep]
+    loops = [(k, pts) for sw, k, pts in helpers.sub("ui.overlay").key_loops(obj) if sw == sweep]
     k_last, pts = loops[-1]
     from bpy_extras.view3d_utils import location_3d_to_region_2d
     from mathutils import Vector

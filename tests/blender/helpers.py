@@ -132,7 +132,7 @@ def use_test_rig(chars):
         mine = [c for c in by_bones.values() if set(c[1]) <= names]
         return bone_rig.make_bone_rig(inp, mine)
 
-    sub("bind").fitter = fitter
+    sub("blender.binding").fitter = fitter
 
 
 def bind(char, use_operator=True):
@@ -146,7 +146,7 @@ def bind(char, use_operator=True):
         result = bpy.ops.object.sweep_deform_add()
         assert result == {'FINISHED'}, result
     else:
-        sub("bind").bind_object(obj, char.armature)
+        sub("blender.binding").bind_object(obj, char.armature)
     assert obj.sweep_deform.state == 'BOUND'
     return obj
 
@@ -198,12 +198,13 @@ def base_positions(obj):
 
 def core_result(obj, depsgraph=None, anatomy=False, corrections=False):
     """What the core computes for the evaluated pose, through the add-on's native module but
-    not through its runtime: a fresh deformer from the stored blobs; with `anatomy`
+    not through its deformer cache: a fresh deformer from the stored blobs; with `anatomy`
     sd_deform_with_anatomy with the object's effect settings; with `corrections` the
     object's key-ellipse correction properties instead of those in the rig blob. Returns (expected mesh
     positions float32 as the add-on must produce them, the core's raw deformed positions
     mapped to mesh space in float64, the anatomy's stats or None)."""
-    native, persistence, runtime = sub("native"), sub("persistence"), sub("runtime")
+    native, persistence = sub("core.native"), sub("blender.persistence")
+    effects_module, corrections_module = sub("blender.anatomy"), sub("blender.corrections")
     s = obj.sweep_deform
     dg = depsgraph or bpy.context.evaluated_depsgraph_get()
     rig, binding, names, rest = persistence.load(obj)
@@ -216,13 +217,14 @@ def core_result(obj, depsgraph=None, anatomy=False, corrections=False):
     d.set_volume_preservation(False, 0.0)
     rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
     if corrections:
-        d.set_rig_corrections(*runtime.correction_arrays(s))
+        d.set_rig_corrections(*corrections_module.correction_arrays(s))
     d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)
     deformed = np.empty((d.vertex_count, 3), np.float32)
     stats = None
     if anatomy:
-        tris = runtime.mesh_triangles(obj.data)
-        effects, problems = runtime.make_anatomy(rig, binding, names, tris, runtime.anatomy_settings(s))
+        tris = sub("blender.mesh_data").triangles(obj.data)
+        effects, problems = effects_module.make_anatomy(rig, binding, names, tris,
+                                                        effects_module.anatomy_settings(s))
         assert not problems, problems
         effects.deform(d, pose, deformed)
         stats = effects.stats()
@@ -247,7 +249,7 @@ def core_expectation(obj, depsgraph=None):
 def armature_modifier_positions(obj):
     """Evaluated positions with Blender's Armature modifier instead of Sweep Deform."""
     s = obj.sweep_deform
-    md_sweep = sub("modifier").find(obj)
+    md_sweep = sub("blender.modifier").find(obj)
     md_arm = obj.modifiers[s.armature_modifier]
     saved = (md_sweep.show_viewport, md_arm.show_viewport, md_arm.object)
     md_sweep.show_viewport, md_arm.show_viewport, md_arm.object = False, True, s.armature

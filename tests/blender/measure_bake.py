@@ -17,6 +17,8 @@ import bpy
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+# install.py, flexion.py, limb_volume.py: shared with the demo and scripts/render_*.py.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "scripts", "blender_support"))
 
 import install  # noqa: E402
 

@@ -27,6 +27,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+# install.py, flexion.py, limb_volume.py: shared with the demo and scripts/render_*.py.
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "scripts", "blender_support"))
 
 import install  # noqa: E402
 
@@ -107,7 +109,7 @@ def time_playback(obj, frames):
 def configure(obj, mode):
     """mode: 'sweep', 'armature', 'armature_dqs' ('sweep_rel': the switched-off Armature
     modifier keeps its object, so the mesh still depends on the pose in the depsgraph)."""
-    from bl_ext.user_default.sweep_deform import modifier
+    from bl_ext.user_default.sweep_deform.blender import modifier
     md_sweep = modifier.find(obj)
     md_arm = obj.modifiers[obj.sweep_deform.armature_modifier]
     md_arm.object = obj.sweep_deform.armature if mode in ('armature', 'armature_dqs', 'sweep_rel') else None
@@ -159,10 +161,10 @@ def measure(key, n, rig="fit"):
     V = len(body.data.vertices)
     pose_list = poses(n + n // (BLOCK - WARM) * WARM + BLOCK, bones)
 
-    # The add-on's own share: runtime.evaluate (Python + core + attribute write) and the core.
-    from bl_ext.user_default.sweep_deform import runtime
+    # The add-on's own share: frame.evaluate (Python + core + attribute write) and the core.
+    from bl_ext.user_default.sweep_deform.blender import deformer_cache, frame
     spent = []
-    original = runtime.evaluate
+    original = frame.evaluate
 
     def timed(*a, **k):
         t = time.perf_counter()
@@ -180,13 +182,13 @@ def measure(key, n, rig="fit"):
         for mode in modes:
             configure(body, mode)
             time_posing(body, arm, block[:WARM])
-            runtime.evaluate = timed
+            frame.evaluate = timed
             spent.clear()
             results[mode, 'posing'] += time_posing(body, arm, block[WARM:])
             results[mode, 'addon'] += list(spent)
-            runtime.evaluate = original
+            frame.evaluate = original
             check_deformed(body, mode)
-    e = runtime.entry(body)
+    e = deformer_cache.entry(body)
     pose = e.last_pose.copy()
     core = []
     for _ in range(n):

@@ -47,12 +47,12 @@ def joint_region(obj, char, bone, positions, triangles, radius=ELBOW_REGION):
 def test_anatomical_effects_at_the_elbow_and_knee():
     char = helpers.load("fixture")
     obj = helpers.bind(char)  # the product's automatic fitting: a report with the chains
-    native, runtime = helpers.sub("native"), helpers.sub("runtime")
+    native, cache, mesh_data = helpers.sub("core.native"), helpers.sub("blender.deformer_cache"), helpers.sub("blender.mesh_data")
     s = obj.sweep_deform
     assert not s.use_anatomy  # off by default
     joints = {j.bone: j.kind for j in s.joints}
     assert joints == {"forearm.L": 'ELBOW', "forearm.R": 'ELBOW', "shin.L": 'KNEE', "shin.R": 'KNEE'}, joints
-    tris = runtime.mesh_triangles(obj.data)
+    tris = mesh_data.triangles(obj.data)
 
     frame("elbow_bend")
     off = evaluated(obj)
@@ -64,7 +64,7 @@ def test_anatomical_effects_at_the_elbow_and_knee():
     on = evaluated(obj)
     expected, stats = expectation(obj, True)
     np.testing.assert_array_equal(on, expected)  # exactly sd_deform_with_anatomy
-    e = runtime.peek(obj)
+    e = cache.peek(obj)
     assert e.anatomy is not None and e.anatomy.joint_count == 4 and not e.anatomy_error
     assert e.anatomy_stats["pairs_before"] == stats["pairs_before"]
     assert not np.array_equal(on, off)
@@ -107,7 +107,7 @@ def test_anatomical_effects_at_the_elbow_and_knee():
           f"{native.measure_intersections(knee_on, tris, knee_region)} with")
     frame("elbow_bend")
     np.testing.assert_array_equal(evaluated(obj), off)
-    assert runtime.peek(obj).anatomy is None
+    assert cache.peek(obj).anatomy is None
 
 
 # ---- the issue's criteria at exact flexion angles --------------------------------------------
@@ -131,7 +131,7 @@ def vertex_normals(positions, triangles):
 @pytest.mark.parametrize("key", ["fixture", "fixture_full"])
 def test_flexion_criteria_on_the_built_in_character(key):
     """Issue 5's criteria on the built-in character bound by the automatic fitting, the joints
-    posed at exact flexion angles (tests/blender/flexion.py): in the joint region, Blender's
+    posed at exact flexion angles (scripts/blender_support/flexion.py): in the joint region, Blender's
     Armature modifier (linear blend skinning) intersects and Sweep Deform with the effects does
     not (exact triangle-triangle test); the limb keeps its volume within 1 % (limb_volume.py:
     the skin bound to the limb's sweep, closed by caps over the shoulder/hip and wrist/ankle
@@ -145,9 +145,10 @@ def test_flexion_criteria_on_the_built_in_character(key):
     if arm.animation_data:
         arm.animation_data.action = None  # the poses below, not the demo motion
     obj = helpers.bind(char)
-    native, runtime, persistence = helpers.sub("native"), helpers.sub("runtime"), helpers.sub("persistence")
+    native, cache, persistence = helpers.sub("core.native"), helpers.sub("blender.deformer_cache"), helpers.sub("blender.persistence")
+    mesh_data = helpers.sub("blender.mesh_data")
     s = obj.sweep_deform
-    tris = runtime.mesh_triangles(obj.data)
+    tris = mesh_data.triangles(obj.data)
     rest = helpers.base_positions(obj)  # object and armature transforms are identity
     _, binding, _, _ = persistence.load(obj)
     vertex_sweep = binding.parameters()[0]
@@ -165,7 +166,7 @@ def test_flexion_criteria_on_the_built_in_character(key):
         s.use_anatomy = True
         bpy.context.view_layer.update()
         on = evaluated(obj)
-        assert not runtime.peek(obj).anatomy_error
+        assert not cache.peek(obj).anatomy_error
 
         centre = np.array(arm.data.bones[lower].head_local, np.float32)
         near = np.linalg.norm(rest - centre, axis=1) < JOINT_REGION

@@ -21,7 +21,7 @@ NAN = float("nan")
 
 def handler_failures():
     """Exceptions the add-on's handlers caught and printed (with a traceback) so far."""
-    return set(helpers.sub("handlers")._reported)
+    return set(helpers.sub("blender.handlers")._reported)
 
 
 def bound_fixture():
@@ -36,7 +36,7 @@ def bound_fixture():
 def assert_refused(obj, last_good, *words):
     """The frame was refused: the last good deformation stays, the panel says why (with
     `words` in it), the binding is untouched and nothing raised in a handler."""
-    e = helpers.sub("runtime").peek(obj)
+    e = helpers.sub("blender.deformer_cache").peek(obj)
     assert e is not None and e.error, "no message for the user"
     for w in words:
         assert w in e.error, e.error
@@ -48,7 +48,7 @@ def assert_refused(obj, last_good, *words):
 
 
 def test_transform_checks_need_no_blender():
-    transforms = helpers.sub("transforms")
+    transforms = helpers.sub("core.checks")
     tree = ast.parse(inspect.getsource(transforms))
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))
                 for a in n.names}
@@ -95,19 +95,19 @@ def test_bad_bone_transform(label, channel, value, usable):
     bpy.context.view_layer.update()
     if usable:
         check_equals_core(obj, label)
-        assert not helpers.sub("runtime").peek(obj).error
+        assert not helpers.sub("blender.deformer_cache").peek(obj).error
     else:
         message = assert_refused(obj, good, f"bone '{bone}'", "Unusable pose")
         print(f"{label}: {message}")
         # The overlay and key edits stay on the pose the mesh shows.
-        assert helpers.sub("runtime").overlay_data(obj) is not None
+        assert helpers.sub("blender.key_ellipses").overlay_data(obj) is not None
     np.testing.assert_array_equal(helpers.base_positions(obj), base)  # the rest mesh untouched
     # Fixed: deforms again, exactly as the core says.
     pb.matrix_basis.identity()
     helpers.set_rotation(pb, (0.4, 0.0, 0.0))
     bpy.context.view_layer.update()
     check_equals_core(obj, label + " fixed")
-    assert not helpers.sub("runtime").peek(obj).error
+    assert not helpers.sub("blender.deformer_cache").peek(obj).error
     assert handler_failures() == before
 
 
@@ -142,7 +142,7 @@ def test_bad_object_transform(label, which, change, words):
     target.matrix_basis = saved
     bpy.context.view_layer.update()
     check_equals_core(obj, label + " fixed")
-    assert not helpers.sub("runtime").peek(obj).error
+    assert not helpers.sub("blender.deformer_cache").peek(obj).error
 
 
 def test_binding_refuses_bad_object_transforms():
@@ -159,7 +159,7 @@ def test_binding_refuses_bad_object_transforms():
             with pytest.raises(RuntimeError, match=words):
                 op('INVOKE_DEFAULT')  # the interface's (modal) path reads the inputs the same way
         target.scale = (1.0, 1.0, 1.0)
-        assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(obj) is None
+        assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(obj) is None
         assert all(m.show_viewport for m in obj.modifiers)
 
 
@@ -179,7 +179,7 @@ def test_mirrored_armature_deforms_the_mirrored_character():
     check_equals_core(obj)
     mirrored = world_positions(obj)
     np.testing.assert_allclose(mirrored * [-1.0, 1.0, 1.0], unmirrored, atol=1e-5 * helpers.diagonal(unmirrored))
-    assert not helpers.sub("runtime").peek(obj).error
+    assert not helpers.sub("blender.deformer_cache").peek(obj).error
 
 
 def test_mirrored_mesh_object_binds_and_deforms_like_the_original():

@@ -15,7 +15,7 @@ import pytest
 
 import helpers
 
-cache_files = helpers.sub("cache_files")
+cache_files = helpers.sub("core.cache_files")
 FRAMES = list(range(72, 77))       # demo_motion going into arms_up (marker at 76)
 STEPPED = list(range(124, 133, 2))  # from knee_bend towards elbow_bend, every second frame
 
@@ -35,7 +35,7 @@ def bound_fixture(subdivision=False):
 def modifier_output(obj, frames):
     """The Sweep Deform modifier's evaluated output (object space) at each frame, with the
     modifiers after it switched off by the test itself."""
-    sweep = helpers.sub("modifier").find(obj)
+    sweep = helpers.sub("blender.modifier").find(obj)
     later = list(obj.modifiers)[list(obj.modifiers).index(sweep) + 1:]
     saved = [md.show_viewport for md in later]
     out = {}
@@ -201,7 +201,7 @@ def test_bake_shape_keys_on_a_copy_equals_the_modifier():
     # No binding, no Sweep Deform, no Armature modifier: only what came after Sweep Deform.
     assert [md.type for md in baked.modifiers] == ['SUBSURF']
     assert baked.sweep_deform.state == 'UNBOUND' and baked.data is not obj.data
-    assert helpers.sub("rig_io").OFFSET_ATTRIBUTE not in baked.data.attributes
+    assert helpers.sub("core.arrays").OFFSET_ATTRIBUTE not in baked.data.attributes
     assert [kb.name for kb in baked.data.shape_keys.key_blocks] == ["Basis"] + [f"frame_{f:04d}" for f in FRAMES]
     np.testing.assert_array_equal(helpers.base_positions(baked), helpers.base_positions(obj))
 
@@ -322,11 +322,11 @@ def test_cancel_leaves_no_partial_output(target):
     scene.frame_set(5)
     before = stack_state(obj)
     objects, meshes = set(bpy.data.objects.keys()), set(bpy.data.meshes.keys())
-    path = out_path("cancelled" + helpers.sub("bake").EXTENSIONS.get(target, ""))
+    path = out_path("cancelled" + helpers.sub("blender.bake").EXTENSIONS.get(target, ""))
     if target != 'SHAPE_KEYS':
         with open(path, "wb") as f:
             f.write(b"older")
-    b = helpers.sub("bake").Bake(bpy.context, obj, target, FRAMES, path)
+    b = helpers.sub("blender.bake").Bake(bpy.context, obj, target, FRAMES, path)
     assert not b.step() and not b.step()
     partial = bpy.data.objects.get("Body_baked") if target == 'SHAPE_KEYS' \
         else os.path.exists(path + cache_files.PARTIAL_SUFFIX)

@@ -71,7 +71,7 @@ def test_finer_mesh_and_point_cloud_follow_the_character():
     assert bind_selected_through(body, [fine, points]) == {'FINISHED'}
     for t in (fine, points):
         assert t.sweep_deform.state == 'BOUND' and t.sweep_deform.armature == char.armature
-        assert helpers.sub("modifier").find(t) is not None
+        assert helpers.sub("blender.modifier").find(t) is not None
 
     # The character's Simple subdivision in its own stack is the reference.
     sub = body.modifiers.new("simple", 'SUBSURF')
@@ -107,7 +107,7 @@ def test_both_opensubdivs_in_one_blender():
     other's code. Blender's Subdivision Surface (its OpenSubdiv) still runs after ours."""
     char = helpers.load("fixture")
     body = helpers.bind(char)
-    dmap = helpers.sub("bind_through_map").fit_map(body)
+    dmap = helpers.sub("blender.bind_through_map").fit_map(body)
     samples, rms, mx = dmap.fit_errors()
     print(f"map of {dmap.sweep_count} sweeps: residual rms up to {1e3 * rms.max():.2f} mm, "
           f"max up to {1e3 * mx.max():.2f} mm over {int(samples.sum())} samples")
@@ -128,19 +128,19 @@ def test_bad_sources_and_targets_change_nothing():
     char = helpers.load("fixture")
     body = char.mesh
     fine = finer_copy(body, "Body_fine")
-    btm = helpers.sub("bind_through_map")
+    btm = helpers.sub("blender.bind_through_map")
     # The character is not bound: no map.
-    with pytest.raises(helpers.sub("bind").BindError, match="not bound"):
+    with pytest.raises(helpers.sub("blender.binding").BindError, match="not bound"):
         btm.bind_through_map([fine], body)
     helpers.bind(char)
     # A target sharing its mesh with another object, and a good one: neither is bound.
     twin = bpy.data.objects.new("twin", fine.data)
     bpy.context.scene.collection.objects.link(twin)
     other = finer_copy(body, "Body_fine2")
-    with pytest.raises(helpers.sub("bind").BindError, match="used by 2 objects"):
+    with pytest.raises(helpers.sub("blender.binding").BindError, match="used by 2 objects"):
         btm.bind_through_map([other, fine], body)
     assert other.sweep_deform.state == 'UNBOUND' and fine.sweep_deform.state == 'UNBOUND'
-    assert helpers.sub("modifier").find(other) is None
+    assert helpers.sub("blender.modifier").find(other) is None
     # The operator reports it, and the poll explains what to select.
     with pytest.raises(RuntimeError, match="used by 2 objects"):
         bind_selected_through(body, [fine])
@@ -154,9 +154,9 @@ def test_missing_map_library_is_reported(monkeypatch):
     char = helpers.load("fixture")
     body = helpers.bind(char)
     fine = finer_copy(body, "Body_fine")
-    native_dmap = helpers.sub("native_dmap")
+    native_dmap = helpers.sub("core.native_dmap")
     monkeypatch.setattr(native_dmap, "_lib", None)
     monkeypatch.setenv("SWEEPDEFORM_DMAP_LIBRARY", "/nonexistent/libsweepdeform_dmap.so.0.1.0")
     with pytest.raises(RuntimeError, match="displacement-map library is missing"):
         bind_selected_through(body, [fine])
-    assert fine.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(fine) is None
+    assert fine.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(fine) is None

@@ -54,13 +54,13 @@ def test_bind_and_pose_elbows_and_knees(character):
     helpers.pose_limbs(character, elbow=0.4, knee=0.3)
     bpy.context.view_layer.update()
     check_equals_core(obj, character.key + " pose 2")
-    runtime = helpers.sub("runtime")
-    frames = runtime.peek(obj).frames
+    cache = helpers.sub("blender.deformer_cache")
+    frames = cache.peek(obj).frames
     for _ in range(3):
         bpy.context.view_layer.update()
     obj.update_tag()
     bpy.context.view_layer.update()
-    assert runtime.peek(obj).frames == frames
+    assert cache.peek(obj).frames == frames
 
 
 def test_volume_settings_and_limb_volumes(character):
@@ -69,7 +69,7 @@ def test_volume_settings_and_limb_volumes(character):
     helpers.pose_limbs(character, elbow=1.4, knee=1.3)
     bpy.context.view_layer.update()
     with_volume = check_equals_core(obj)
-    e = helpers.sub("runtime").peek(obj)
+    e = helpers.sub("blender.deformer_cache").peek(obj)
     rest, before, after = e.volumes()
     assert len(e.labels) == obj.sweep_deform.sweep_count == len(rest)
     assert np.all(np.abs(after - rest) <= np.abs(before - rest) + 1e-9 * np.abs(rest))
@@ -184,12 +184,12 @@ def test_edit_mode_is_skipped_and_topology_change_needs_rebind():
     helpers.pose_limbs(char, elbow=1.0)
     bpy.context.view_layer.update()
     check_equals_core(obj)
-    runtime = helpers.sub("runtime")
-    frames = runtime.peek(obj).frames
+    cache = helpers.sub("blender.deformer_cache")
+    frames = cache.peek(obj).frames
     bpy.ops.object.mode_set(mode='EDIT')
     helpers.pose_limbs(char, elbow=0.2)
     bpy.context.view_layer.update()
-    assert runtime.peek(obj).frames == frames  # not evaluated in Edit Mode
+    assert cache.peek(obj).frames == frames  # not evaluated in Edit Mode
     # Same element counts, other connectivity: turn one edge.
     import bmesh
     bm = bmesh.from_edit_mesh(obj.data)
@@ -244,7 +244,7 @@ def test_followed_by_subdivision_and_toggles():
     co, attrs = helpers.evaluated_positions(obj)
     assert len(co) > len(posed) and "sweep_deform_offset" not in attrs
     obj.modifiers.remove(sub)
-    md = helpers.sub("modifier").find(obj)
+    md = helpers.sub("blender.modifier").find(obj)
     md.show_viewport = False
     bpy.context.view_layer.update()
     co, _ = helpers.evaluated_positions(obj)
@@ -284,10 +284,10 @@ def test_remove_and_unbind_restore_the_armature_modifier():
     arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
     assert bpy.ops.object.sweep_deform_unbind() == {'FINISHED'}
     assert arm_md.show_viewport and arm_md.show_render and arm_md.object == char.armature
-    assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(obj) is not None
+    assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(obj) is not None
     assert bpy.ops.object.sweep_deform_bind() == {'FINISHED'}
     assert not arm_md.show_viewport
-    obj.modifiers.remove(helpers.sub("modifier").find(obj))
+    obj.modifiers.remove(helpers.sub("blender.modifier").find(obj))
     bpy.context.view_layer.update()
     assert obj.sweep_deform.state == 'UNBOUND'
     assert arm_md.show_viewport and arm_md.show_render and arm_md.object == char.armature
@@ -312,7 +312,7 @@ def test_shared_mesh_is_refused():
     bpy.context.view_layer.objects.active = char.mesh
     with pytest.raises(RuntimeError, match="single user"):
         bpy.ops.object.sweep_deform_add()
-    assert char.mesh.sweep_deform.state == 'UNBOUND' and helpers.sub("modifier").find(char.mesh) is None
+    assert char.mesh.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(char.mesh) is None
 
 
 def test_disable_and_enable_the_extension():
@@ -338,7 +338,7 @@ def test_disable_and_enable_the_extension():
 
 
 def test_in_menus_for_f3_search():
-    ops = helpers.sub("operators")
+    ops = helpers.sub("ui.menu")
     assert ops._object_menu in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
     deform = getattr(bpy.types, "OBJECT_MT_modifier_add_deform", None)
     assert deform is not None and ops._modifier_menu in deform._dyn_ui_initialize()

@@ -28,7 +28,7 @@ for key in {keys!r}:
         r["result"] = list(bpy.ops.object.sweep_deform_add())
         r["seconds"] = time.perf_counter() - t
         r["state"], r["sweeps"] = obj.sweep_deform.state, obj.sweep_deform.sweep_count
-        r["labels"] = helpers.sub("runtime").entry(obj).labels
+        r["labels"] = helpers.sub("blender.deformer_cache").entry(obj).labels
         # Issue 3 on every character, the built-in one included: bound share, rest pose
         # reproduced, elbow and knee key ellipses against their cross-sections.
         rep = json.loads(obj.get("_sweep_deform_fit_report", "") or "{{}}")

@@ -15,7 +15,7 @@ def installed_dir():
 
 def test_installed_from_the_zip_with_its_libraries():
     d = installed_dir()
-    for f in ("blender_manifest.toml", "__init__.py", "native.py", "lib/libsweepdeform.so.0.1.0",
+    for f in ("blender_manifest.toml", "__init__.py", "core/native.py", "lib/libsweepdeform.so.0.1.0",
               "lib/libtbb.so.12"):
         assert os.path.isfile(os.path.join(d, f)), f
     assert helpers.addon().__name__ == helpers.MODULE
@@ -23,7 +23,7 @@ def test_installed_from_the_zip_with_its_libraries():
 
 
 def test_library_loads_by_its_versioned_name_and_abi():
-    native = helpers.sub("native")
+    native = helpers.sub("core.native")
     ok, version = native.available()
     assert ok, version
     assert version == "0.1.0"
@@ -37,7 +37,7 @@ def test_tbb_is_blenders_one_copy():
     """The library needs libtbb.so.12; Blender has already loaded a newer one, which the
     loader reuses (same SONAME), so the copy bundled in lib/ stays unused and only one TBB
     runs in the process. The core runs on it (a deformation uses TBB)."""
-    helpers.sub("native").library()
+    helpers.sub("core.native").library()
     maps = [l.split()[-1] for l in open("/proc/self/maps") if "libtbb.so" in l]
     tbb = sorted(set(maps))
     assert len(tbb) == 1, tbb
@@ -57,8 +57,8 @@ def test_every_abi_function_is_declared():
     for m in re.finditer(r"SD_API\s+[\w\s\*]+?\b(sd_\w+)\s*\(([^)]*)\)", header):
         args = m.group(2).strip()
         declared[m.group(1)] = 0 if args in ("", "void") else args.count(",") + 1
-    for module, in_it in (("native", lambda n: not n.startswith("sd_dmap_")),
-                          ("native_dmap", lambda n: n.startswith("sd_dmap_"))):
+    for module, in_it in (("core.native", lambda n: not n.startswith("sd_dmap_")),
+                          ("core.native_dmap", lambda n: n.startswith("sd_dmap_"))):
         binding = helpers.sub(module)
         mine = {n: c for n, c in declared.items() if in_it(n)}
         assert set(mine) == set(binding.SIGNATURES), module
@@ -69,7 +69,7 @@ def test_every_abi_function_is_declared():
 
 
 def test_missing_library_is_reported_clearly(monkeypatch, tmp_path):
-    native = helpers.sub("native")
+    native = helpers.sub("core.native")
     monkeypatch.setenv("SWEEPDEFORM_LIBRARY", str(tmp_path / "nothing.so"))
     try:
         native._load()
@@ -79,7 +79,7 @@ def test_missing_library_is_reported_clearly(monkeypatch, tmp_path):
 
 
 def test_wrong_abi_version_is_refused(monkeypatch):
-    native = helpers.sub("native")
+    native = helpers.sub("core.native")
     monkeypatch.setattr(native, "ABI_VERSION", 99)
     try:
         native._load()
@@ -90,7 +90,7 @@ def test_wrong_abi_version_is_refused(monkeypatch):
 
 def test_arrays_of_the_wrong_dtype_never_reach_c():
     import numpy as np
-    native = helpers.sub("native")
+    native = helpers.sub("core.native")
     rig = native.Rig.create([-1], np.eye(4).ravel(), [0, 0, 0], [0, 0, 1])
     try:
         native.library().sd_rig_create(1, np.array([-1], np.int64), None, None, None, None)
@@ -105,7 +105,7 @@ import bpy, sys
 zip_path = sys.argv[sys.argv.index("--") + 1]
 print("RESULT", bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True))
 print("ENABLED", "bl_ext.user_default.sweep_deform" in bpy.context.preferences.addons)
-from bl_ext.user_default.sweep_deform import native
+from bl_ext.user_default.sweep_deform.core import native
 print("NATIVE", native.available())
 '''
 

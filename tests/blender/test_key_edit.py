@@ -23,7 +23,7 @@ import helpers
 
 def elbow_key(obj, bone="forearm.L"):
     """(sweep, key) of the joint key whose lower link is `bone`."""
-    e = helpers.sub("runtime").entry(obj)
+    e = helpers.sub("blender.deformer_cache").entry(obj)
     for s in range(e.rig.sweep_count):
         keys = e.rig.keys(s)
         for k in range(len(keys["bones"])):
@@ -72,7 +72,7 @@ def edit_elbow_at(char, degrees):
 
 def core_with_corrections(obj):
     """The mesh as the core computes it from the stored rig and binding plus the object's
-    correction properties, bypassing the add-on's runtime."""
+    correction properties, bypassing the add-on's deformer cache."""
     return helpers.core_result(obj, corrections=True)[0]
 
 
@@ -80,7 +80,7 @@ def core_with_corrections(obj):
 
 
 def test_key_edit_math_is_blender_free():
-    key_edit = helpers.sub("key_edit")
+    key_edit = helpers.sub("core.key_edit")
     source = open(key_edit.__file__).read()
     assert "import bpy" not in source and "from bpy" not in source
     rng = np.random.default_rng(3)
@@ -167,7 +167,7 @@ def test_edit_at_rest_shifts_every_pose(fixture_char):
     bend(char, 0)
     tweak('MOVE', (0.0, -0.02, 0.0))  # world space (= armature space here): forward
     c = obj.sweep_deform.corrections[0]
-    _, _, rest_angle = helpers.sub("runtime").entry(obj).rig.key_joint(sweep, key)
+    _, _, rest_angle = helpers.sub("blender.deformer_cache").entry(obj).rig.key_joint(sweep, key)
     assert c.angle == pytest.approx(rest_angle, abs=1e-6)
     after = {deg: bend(char, deg) for deg in (0, 150)}
     for deg in (0, 150):
@@ -204,7 +204,7 @@ def test_mute_delete_and_the_panel(fixture_char):
     assert len(s.corrections) == 0
     np.testing.assert_array_equal(bend(char, 150), plain)
     # The panels draw (headless: through their draw functions' data; no error is recorded).
-    assert helpers.sub("runtime").peek(obj).correction_error == ""
+    assert helpers.sub("blender.deformer_cache").peek(obj).correction_error == ""
 
 
 def test_invalid_values_are_refused_and_reported(fixture_char):
@@ -215,10 +215,10 @@ def test_invalid_values_are_refused_and_reported(fixture_char):
     offset = tuple(obj.sweep_deform.corrections[0].offset)
     obj.sweep_deform.corrections[0].offset = (0.0, 5.0, 0.0)  # far beyond 10 × the half-axes
     np.testing.assert_array_equal(bend(char, 150), edited)  # the last valid corrections stay
-    assert "offset" in helpers.sub("runtime").peek(obj).correction_error
+    assert "offset" in helpers.sub("blender.deformer_cache").peek(obj).correction_error
     obj.sweep_deform.corrections[0].offset = offset
     np.testing.assert_array_equal(bend(char, 150), edited)
-    assert helpers.sub("runtime").peek(obj).correction_error == ""
+    assert helpers.sub("blender.deformer_cache").peek(obj).correction_error == ""
 
 
 def test_keyframed_correction_animates(fixture_char):
@@ -249,7 +249,7 @@ def test_keyframed_correction_animates(fixture_char):
     bpy.context.view_layer.update()
     tweak('MOVE_X', 0.01)
     scene.tool_settings.use_keyframe_insert_auto = False
-    keyed = {(fc.data_path, int(k.co[0])) for coll in helpers.sub("operators")._fcurve_lists(obj) for fc in coll
+    keyed = {(fc.data_path, int(k.co[0])) for coll in helpers.sub("blender.fcurves").fcurve_collections(obj) for fc in coll
              for k in fc.keyframe_points}
     assert ("sweep_deform.corrections[0].offset", 30) in keyed, keyed
     # A driver works the same way.
@@ -271,7 +271,7 @@ def test_deleting_a_correction_keeps_the_others_keyframes(fixture_char):
     s.corrections[1].keyframe_insert("scale_b", frame=1)
     s.corrections[0].keyframe_insert("scale_a", frame=1)
     assert bpy.ops.object.sweep_deform_correction_remove(index=0) == {'FINISHED'}
-    paths = sorted(fc.data_path for coll in helpers.sub("operators")._fcurve_lists(obj) for fc in coll)
+    paths = sorted(fc.data_path for coll in helpers.sub("blender.fcurves").fcurve_collections(obj) for fc in coll)
     assert paths == ["sweep_deform.corrections[0].scale_b"], paths
 
 
@@ -284,7 +284,7 @@ def test_save_and_reload_keep_the_edits(fixture_char):
     path = os.path.join(helpers.tmp_dir(), "key_edit_reload.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     # The saved rig blob carries the corrections too (format version 2), for other tools.
-    native, persistence = helpers.sub("native"), helpers.sub("persistence")
+    native, persistence = helpers.sub("core.native"), helpers.sub("blender.persistence")
     blob = bytes(obj[persistence.RIG_KEY])
     assert struct.unpack("<I", blob[4:8])[0] == 2
     assert native.Rig.deserialize(blob).corrections()["sweeps"].size == 1
@@ -292,7 +292,7 @@ def test_save_and_reload_keep_the_edits(fixture_char):
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects[char.mesh_name]
-    assert helpers.sub("runtime").peek(obj) is None
+    assert helpers.sub("blender.deformer_cache").peek(obj) is None
     assert [tuple(c.offset) + tuple(c.rotation) + (c.angle, c.scale_a, c.scale_b)
             for c in obj.sweep_deform.corrections] == values
     char = helpers.Character("fixture", "Body", "Armature", [], [], [])
@@ -304,7 +304,7 @@ def test_overlay_and_gizmo_geometry_follow_the_edit(fixture_char):
     """What the overlay draws and where the gizmos sit (headless: the geometry, not the pixels)."""
     char = fixture_char
     obj = char.mesh
-    overlay, runtime = helpers.sub("overlay"), helpers.sub("runtime")
+    overlay, key_ellipses = helpers.sub("ui.overlay"), helpers.sub("blender.key_ellipses")
     assert bpy.ops.object.sweep_deform_edit_keys(action='ENABLE') == {'FINISHED'}
     s = obj.sweep_deform
     assert s.edit_keys and (s.active_sweep, s.active_key) != (-1, -1)  # an interior joint key is selected
@@ -313,18 +313,18 @@ def test_overlay_and_gizmo_geometry_follow_the_edit(fixture_char):
     bend(char, 150)
     geometry = overlay.geometry(obj)
     assert set(geometry) == {"sweeps", "keys", "selected"}  # nothing moved: no grey placed key
-    st = runtime.key_state(obj, sweep, key)
+    st = key_ellipses.key_state(obj, sweep, key)
     tweak('MOVE_Z', 0.03)
     geometry = overlay.geometry(obj)
     assert "placed" in geometry
-    st2 = runtime.key_state(obj, sweep, key)
+    st2 = key_ellipses.key_state(obj, sweep, key)
     np.testing.assert_allclose(st2["shown_center"] - st["shown_center"], st["shown_rotation"][:, 2] * 0.03,
                                atol=1e-5)
     # Along the axis as shown, also when the key is turned.
     tweak('ROTATE_Y', 0.4)
-    st3 = runtime.key_state(obj, sweep, key)
+    st3 = key_ellipses.key_state(obj, sweep, key)
     tweak('MOVE_Z', 0.02)
-    st4 = runtime.key_state(obj, sweep, key)
+    st4 = key_ellipses.key_state(obj, sweep, key)
     np.testing.assert_allclose(st4["shown_center"] - st3["shown_center"], st3["shown_rotation"][:, 2] * 0.02,
                                atol=1e-5)
     # The selected key drawn where the core places it.
@@ -337,13 +337,13 @@ def test_deformer_is_updated_not_recreated(fixture_char):
     (and its rest shape) stays the same object while dragging."""
     char = fixture_char
     obj = char.mesh
-    runtime = helpers.sub("runtime")
+    cache = helpers.sub("blender.deformer_cache")
     bend(char, 150)
-    e = runtime.peek(obj)
+    e = cache.peek(obj)
     deformer = e.deformer
     edit_elbow_at(char, 150)
     bend(char, 150)
-    assert runtime.peek(obj) is e and e.deformer is deformer
+    assert cache.peek(obj) is e and e.deformer is deformer
 
 
 # ---- undo, the overlay on screen (GUI Blender under Xvfb) --------------------------------------

@@ -92,7 +92,7 @@ def assert_keeps_saved_shape(body, saved):
     says why and what to do; the binding's state is untouched."""
     bpy.context.view_layer.update()
     np.testing.assert_array_equal(helpers.evaluated_positions(body)[0], saved)
-    e = helpers.sub("runtime").peek(body)
+    e = helpers.sub("blender.deformer_cache").peek(body)
     assert e is not None and "is linked from" in e.error and "Make Local" in e.error, e and e.error
     assert body.sweep_deform.state == 'BOUND' and body.sweep_deform.message == ""
 
@@ -138,7 +138,7 @@ def test_library_override_made_local():
     assert body.data.library is None
     bpy.context.view_layer.update()
     check_equals_core(body, "made local")
-    assert body.sweep_deform.state == 'BOUND' and not helpers.sub("runtime").peek(body).error
+    assert body.sweep_deform.state == 'BOUND' and not helpers.sub("blender.deformer_cache").peek(body).error
 
     names = body.name, arm.name
     save_and_reopen("overrides_character.blend")

@@ -34,12 +34,12 @@ def test_save_reload_exact(key):
     obj = bpy.data.objects[char.mesh_name]
     assert obj.sweep_deform.state == 'BOUND'
     assert obj.sweep_deform.volume_strength == 0.75
-    assert helpers.sub("runtime").peek(obj) is None  # nothing native survives a load
+    assert helpers.sub("blender.deformer_cache").peek(obj) is None  # nothing native survives a load
     bpy.context.view_layer.update()
     np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], first)
     helpers.pose_limbs(char, elbow=0.6, knee=1.4)
     bpy.context.view_layer.update()
-    assert helpers.sub("runtime").peek(obj).frames >= 1  # re-created from the blobs, evaluated
+    assert helpers.sub("blender.deformer_cache").peek(obj).frames >= 1  # re-created from the blobs, evaluated
     np.testing.assert_array_equal(check_equals_core(obj), second)
 
 
@@ -47,11 +47,11 @@ def test_damaged_blob_needs_rebind():
     char = helpers.load("makehuman")
     helpers.use_test_rig([char])
     obj = helpers.bind(char)
-    persistence = helpers.sub("persistence")
+    persistence = helpers.sub("blender.persistence")
     blob = bytearray(obj[persistence.BINDING_KEY])
     blob[len(blob) // 2] ^= 0xFF
     persistence._put_bytes(obj, persistence.BINDING_KEY, bytes(blob))
-    helpers.sub("runtime").clear()
+    helpers.sub("blender.deformer_cache").clear()
     helpers.pose_limbs(char, elbow=1.0)
     bpy.context.view_layer.update()
     assert obj.sweep_deform.state == 'REBIND'
@@ -106,7 +106,7 @@ def step():
             expected, _ = helpers.core_expectation(obj)
             out["deforms_after_redo"] = bool(np.array_equal(co, expected)) and bool(np.abs(co - helpers.base_positions(obj)).max() > 0.05)
             # The interactive path: modal, progress, the native stages in a worker thread.
-            helpers.sub("bind").fitter = helpers.sub("bind").fit_native
+            helpers.sub("blender.binding").fitter = helpers.sub("blender.binding").fit_native
             out["unbind"] = list(bpy.ops.object.sweep_deform_unbind('EXEC_DEFAULT', True))
             out["invoke"] = list(bpy.ops.object.sweep_deform_bind('INVOKE_DEFAULT'))
     except Exception:
@@ -129,7 +129,7 @@ def finish(out):
         bpy.context.view_layer.update()
         with bpy.context.temp_override(window=win):
             bpy.ops.wm.redraw_timer(type='DRAW_WIN_SWAP', iterations=2)
-        out["volumes_drawn"] = helpers.sub("runtime").peek(obj).volumes() is not None
+        out["volumes_drawn"] = helpers.sub("blender.deformer_cache").peek(obj).volumes() is not None
         # Cancel: Esc arrives before the first progress tick; nothing changes.
         with bpy.context.temp_override(window=win):
             bpy.ops.object.sweep_deform_unbind('EXEC_DEFAULT', True)

@@ -90,7 +90,7 @@ def test_f12_and_animation_render_the_pose_of_each_frame():
     scene.frame_set(1)
     rest = render_still(os.path.join(out, "still_1.png"))
     # The same frame with Blender's Armature modifier instead: nearly the same picture.
-    md_sweep = helpers.sub("modifier").find(obj)
+    md_sweep = helpers.sub("blender.modifier").find(obj)
     md_arm = obj.modifiers[obj.sweep_deform.armature_modifier]
     md_sweep.show_render, md_arm.show_render, md_arm.object = False, True, obj.sweep_deform.armature
     scene.frame_set(2)

@@ -6,8 +6,9 @@ Every gizmo runs :class:`OBJECT_OT_sweep_deform_key_tweak` (``target_set_operato
 modal operator with ``REGISTER``/``UNDO``: the drag updates the correction properties live
 (the handlers deform the mesh on every change), and releasing the mouse makes one undo
 step; Esc or right click restores the key. Run from a script with ``EXEC_DEFAULT`` the
-same operator applies a given amount through the same function (:func:`apply_edit`), which
-is what the tests use.
+same operator applies a given amount through the same edit, which is what the tests use:
+blender/key_ellipses.py's ``Edit`` (which correction an edit changes, from what values),
+through ``apply_edit``.
 
 The gizmos, on the key as it is shown (its own axes: X major, Y minor, Z normal):
 
@@ -22,9 +23,12 @@ import math
 import bpy
 import numpy as np
 from bpy.props import EnumProperty, FloatVectorProperty, IntProperty
+from bpy_extras.view3d_utils import location_3d_to_region_2d, region_2d_to_location_3d
 from mathutils import Matrix, Vector
 
-from . import key_edit, overlay, runtime
+from ..blender import deformer_cache, key_ellipses
+from ..core import key_edit
+from . import overlay
 
 TOOL_ID = "sweep_deform.edit_key_ellipses"
 _MODE_ITEMS = [
@@ -48,92 +52,6 @@ def editable(obj):
             and obj.mode == 'OBJECT')
 
 
-def selected_key(obj, sweep=-1, key=-1):
-    s = obj.sweep_deform
-    sweep = s.active_sweep if sweep < 0 else sweep
-    key = s.active_key if key < 0 else key
-    return sweep, key
-
-
-def key_corrections(settings, sweep, key):
-    """[(index in the collection, item)] of one key's corrections."""
-    return [(i, c) for i, c in enumerate(settings.corrections) if c.sweep == sweep and c.key == key]
-
-
-def write_values(item, values):
-    v = [float(x) for x in values]
-    if tuple(item.offset) != tuple(v[0:3]):
-        item.offset = v[0:3]
-    if tuple(item.rotation) != tuple(v[3:6]):
-        item.rotation = v[3:6]
-    if item.scale_a != v[6]:
-        item.scale_a = v[6]
-    if item.scale_b != v[7]:
-        item.scale_b = v[7]
-
-
-def item_values(item):
-    return key_edit.as_values(item.offset, item.rotation, item.scale_a, item.scale_b)
-
-
-class Edit:
-    """One edit of one key ellipse in the current pose: the correction it changes (found
-    within the merge angle, else created at the current angle, or at the rest angle when
-    near it, starting from the interpolated value so nothing jumps) and where it started."""
-
-    def __init__(self, obj, sweep, key):
-        s = obj.sweep_deform
-        self.obj_name = obj.name
-        self.sweep, self.key = sweep, key
-        self.state = runtime.key_state(obj, sweep, key)
-        mine = [(i, c) for i, c in key_corrections(s, sweep, key) if not c.mute]
-        found = key_edit.find_correction([c.angle for _, c in mine], self.state["angle"], s.merge_angle)
-        self.created = found is None
-        if self.created:
-            e = runtime.entry(obj)
-            angle = key_edit.edit_angle(self.state["angle"], self.state["rest_angle"], s.merge_angle)
-            start = e.rig.key_correction_at(sweep, key, angle).astype(np.float64)
-            item = s.corrections.add()
-            item.sweep, item.key, item.angle = sweep, key, angle
-            write_values(item, start)
-            self.index = len(s.corrections) - 1
-        else:
-            self.index = mine[found][0]
-        s.active_correction = self.index
-        item = s.corrections[self.index]
-        self.start = item_values(item)
-        self.max_offset = key_edit.max_offset(self.state["rest_half_axes"])
-
-    @property
-    def obj(self):
-        return bpy.data.objects[self.obj_name]
-
-    def set(self, mode, amount):
-        """The correction = the start with one edit of `amount` applied (see key_edit.apply)."""
-        values = key_edit.apply(mode, self.start, amount, self.state["rotation"])
-        values = key_edit.clamp_values(values, self.max_offset)
-        write_values(self.obj.sweep_deform.corrections[self.index], values)
-        return values
-
-    def cancel(self):
-        s = self.obj.sweep_deform
-        if self.created:
-            s.corrections.remove(self.index)
-            s.active_correction = max(0, min(s.active_correction, len(s.corrections) - 1))
-            self.obj.update_tag()
-        else:
-            write_values(s.corrections[self.index], self.start)
-
-
-def apply_edit(obj, mode, amount, sweep=-1, key=-1):
-    """Applies one edit to a key ellipse of `obj` in its current pose (what a gizmo drag
-    ends with). Returns the correction's new values."""
-    sweep, key = selected_key(obj, sweep, key)
-    if sweep < 0 or key < 0:
-        raise ValueError("no key ellipse is selected")
-    return Edit(obj, sweep, key).set(mode, amount)
-
-
 def autokey(context, obj, index):
     """With auto keying on, key the edited correction's values at the current frame."""
     ts = context.scene.tool_settings
@@ -148,7 +66,6 @@ def autokey(context, obj, index):
 
 
 def _region_point(region, rv3d, world):
-    from bpy_extras.view3d_utils import location_3d_to_region_2d
     p = location_3d_to_region_2d(region, rv3d, Vector(world))
     return None if p is None else np.array(p, np.float64)
 
@@ -186,7 +103,7 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
     def execute(self, context):
         obj = context.object
         try:
-            apply_edit(obj, self.mode, self._amount(), self.sweep, self.key)
+            key_ellipses.apply_edit(obj, self.mode, self._amount(), self.sweep, self.key)
         except (ValueError, RuntimeError) as e:
             self.report({'ERROR'}, f"Sweep Deform: {e}")
             return {'CANCELLED'}
@@ -200,12 +117,12 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
         region, rv3d = context.region, context.region_data
         if region is None or rv3d is None or context.area is None or context.area.type != 'VIEW_3D':
             return self.execute(context)
-        sweep, key = selected_key(obj, self.sweep, self.key)
+        sweep, key = key_ellipses.selected_key(obj, self.sweep, self.key)
         if sweep < 0 or key < 0:
             self.report({'WARNING'}, "Sweep Deform: select a key ellipse first")
             return {'CANCELLED'}
         try:
-            self._edit = Edit(obj, sweep, key)
+            self._edit = key_ellipses.Edit(obj, sweep, key)
         except (ValueError, RuntimeError) as e:
             self.report({'ERROR'}, f"Sweep Deform: {e}")
             return {'CANCELLED'}
@@ -239,7 +156,6 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
         return {'RUNNING_MODAL'}
 
     def _drag(self, context, event):
-        from bpy_extras.view3d_utils import region_2d_to_location_3d
         mouse = np.array((event.mouse_region_x, event.mouse_region_y), np.float64)
         mode = self.mode
         if mode == "MOVE":
@@ -251,7 +167,7 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
         elif mode in ("MOVE_X", "MOVE_Y", "MOVE_Z"):
             # The tip is `length` armature units along the axis: the drag comes out in those units.
             amount = 0.0 if self._tip2d is None else key_edit.axis_drag(self._mouse0, mouse, self._center2d,
-                                                                       self._tip2d, self._length)
+                                                                        self._tip2d, self._length)
             self.amount = (amount, 0.0, 0.0)
         elif mode.startswith("ROTATE_"):
             amount = key_edit.dial_drag(self._center2d, self._mouse0, mouse, self._facing)
@@ -260,7 +176,7 @@ class OBJECT_OT_sweep_deform_key_tweak(bpy.types.Operator):
             self.amount = (amount, 0.0, 0.0)
         else:
             amount = 1.0 if self._tip2d is None else key_edit.scale_drag(self._mouse0, mouse, self._center2d,
-                                                                        self._tip2d)
+                                                                         self._tip2d)
             self.amount = (amount, 0.0, 0.0)
         if event.shift and mode != "MOVE":  # precision
             a0 = 1.0 if mode.startswith("SCALE_") else 0.0
@@ -305,7 +221,7 @@ class OBJECT_OT_sweep_deform_select_key(bpy.types.Operator):
             self.report({'ERROR'}, "Sweep Deform: no such key ellipse")
             return {'CANCELLED'}
         if self.sweep >= 0:
-            e = runtime.entry(obj)
+            e = deformer_cache.entry(obj)
             if e.rig is None or self.key >= e.rig.key_count(self.sweep):
                 self.report({'ERROR'}, "Sweep Deform: no such key ellipse")
                 return {'CANCELLED'}
@@ -393,7 +309,7 @@ class VIEW3D_GGT_sweep_deform_key(bpy.types.GizmoGroup):
     def refresh(self, context):
         obj = context.object
         s = obj.sweep_deform
-        data = runtime.overlay_data(obj)
+        data = key_ellipses.overlay_data(obj)
         if not data or s.active_sweep >= len(data) or s.active_key >= len(data[s.active_sweep]["centers"]):
             for gz in self.gizmos:
                 gz.hide = True

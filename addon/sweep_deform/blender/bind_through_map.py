@@ -7,40 +7,41 @@ mesh of the same body, or a point cloud (a mesh object with vertices only, e.g. 
 the character's own sweeps and key-ellipse edits and without fitting again. The new object
 deforms with the same armature through its own Sweep Deform modifier.
 
-The map comes from libsweepdeform_dmap (native_dmap.py); the rest is the ordinary binding's
-store stage (bind.store), so the result saves, reloads, undoes and un-binds like any binding.
+The map comes from libsweepdeform_dmap (core/native_dmap.py); the rest is the ordinary binding's
+store stage (binding.store), so the result saves, reloads, undoes and un-binds like any binding.
 """
 
 import json
 
-from . import bind, native, native_dmap, persistence, rig_io, runtime
+from ..core import arrays, native, native_dmap
+from . import binding, mesh_data, persistence
 
 
 def check_source(source):
     """The bound character whose map is used: raises BindError saying what is wrong."""
     if source is None or source.type != 'MESH':
-        raise bind.BindError("Make the bound character the active object")
+        raise binding.BindError("Make the bound character the active object")
     s = source.sweep_deform
     if s.state != 'BOUND' or not persistence.has_blobs(source) or s.armature is None:
-        raise bind.BindError(f"'{source.name}' is not bound with Sweep Deform: bind it first")
+        raise binding.BindError(f"'{source.name}' is not bound with Sweep Deform: bind it first")
     if not (persistence.topology_matches(source) and persistence.rest_positions_match(source)):
-        raise bind.BindError(f"'{source.name}' changed since it was bound: re-bind it first")
+        raise binding.BindError(f"'{source.name}' changed since it was bound: re-bind it first")
 
 
 def check_target(target, source):
     """A mesh object that may receive a binding through `source`'s map: raises BindError
     saying why not (as for any binding, plus: not the source itself, at least one vertex)."""
-    bind.check_bindable(target, source.sweep_deform.armature)
+    binding.check_bindable(target, source.sweep_deform.armature)
     if target == source or target.data == source.data:
-        raise bind.BindError(f"'{target.name}' is the bound character itself")
+        raise binding.BindError(f"'{target.name}' is the bound character itself")
     if len(target.data.vertices) == 0:
-        raise bind.BindError(f"'{target.name}' has no vertices")
+        raise binding.BindError(f"'{target.name}' has no vertices")
 
 
 def fit_map(source):
     """The displacement map of the bound `source` (its stored rig and binding, its mesh)."""
     return native_dmap.DisplacementMap(bytes(source[persistence.RIG_KEY]), bytes(source[persistence.BINDING_KEY]),
-                                       runtime.mesh_triangles(source.data))
+                                       mesh_data.triangles(source.data))
 
 
 def bind_through_map(targets, source, snap=native_dmap.SNAP_DEFAULT):
@@ -66,15 +67,15 @@ def bind_through_map(targets, source, snap=native_dmap.SNAP_DEFAULT):
     dmap = fit_map(source)
     bound = []
     for t in targets:
-        inp = bind.BindInputs()
+        inp = binding.BindInputs()
         inp.object_name, inp.armature_name = t.name, arm.name
         inp.mesh_to_armature = [list(row) for row in arm.matrix_world.inverted() @ t.matrix_world]
-        inp.positions = rig_io.transform_points(inp.mesh_to_armature, persistence.mesh_positions(t.data))
+        inp.positions = arrays.transform_points(inp.mesh_to_armature, mesh_data.vertex_positions(t.data))
         inp.bone_names, inp.rest = names, rest
         binding_blob, snapped = dmap.bind(inp.positions, snap)
-        out = bind.BindOutputs(rig, rig_blob, native.Binding.deserialize(binding_blob),
-                               json.dumps(dict(report, snapped_influences=snapped)))
+        out = binding.BindOutputs(rig, rig_blob, native.Binding.deserialize(binding_blob),
+                                  json.dumps(dict(report, snapped_influences=snapped)))
         bound.append((t, inp, out, snapped))
     for t, inp, out, _ in bound:
-        bind.store(t, arm, inp, out)
+        binding.store(t, arm, inp, out)
     return [snapped for _, _, _, snapped in bound]

@@ -9,7 +9,7 @@ For each bound mesh with *Edit Key Ellipses* on, in the pose being shown, it dra
   (grey) when a correction moves it.
 
 Everything is drawn on top of the mesh (no depth test): the key ellipses lie on the skin
-or inside it. The geometry comes from the core (runtime.overlay_data: the corrected keys
+or inside it. The geometry comes from the core (key_ellipses.overlay_data: the corrected keys
 and the sampled sweeps, before volume control, the values an artist edits) and is turned
 into GPU batches only when the pose, the corrections, the selection or the armature's
 transform change.
@@ -20,7 +20,8 @@ import gpu
 import numpy as np
 from gpu_extras.batch import batch_for_shader
 
-from . import key_edit, runtime
+from ..blender import deformer_cache, key_ellipses
+from ..core import key_edit
 
 #: Colours (RGBA). The key colour is pure cyan so that a test can find it on screen.
 KEY_COLOR = (0.0, 1.0, 1.0, 1.0)
@@ -69,7 +70,7 @@ def _to_world(m, points):
 
 def key_loops(obj, data=None):
     """[(sweep, key, world points (n,3))] of every key ellipse of `obj` as shown."""
-    data = runtime.overlay_data(obj) if data is None else data
+    data = key_ellipses.overlay_data(obj) if data is None else data
     if not data:
         return []
     m = world_matrix(obj)
@@ -83,7 +84,7 @@ def key_loops(obj, data=None):
 
 def geometry(obj):
     """World-space line segments of the overlay: {"sweeps", "keys", "selected", "placed"}."""
-    data = runtime.overlay_data(obj)
+    data = key_ellipses.overlay_data(obj)
     if not data:
         return {}
     s_sel, k_sel = obj.sweep_deform.active_sweep, obj.sweep_deform.active_key
@@ -126,9 +127,9 @@ def _shader():
 
 
 def _batches(obj):
-    e = runtime.peek(obj)
+    e = deformer_cache.peek(obj)
     s = obj.sweep_deform
-    data = runtime.overlay_data(obj)
+    data = key_ellipses.overlay_data(obj)
     key = (id(data), e.overlay_key if e is not None else None, tuple(map(tuple, world_matrix(obj))),
            s.active_sweep, s.active_key, s.show_sweeps)
     cached = _cache.get(obj.name)

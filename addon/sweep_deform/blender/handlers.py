@@ -10,7 +10,7 @@ When offsets are written (measured in Blender 4.3 and 5.2, see docs/addon.md):
   a write there is picked up by that very frame's render.
 
 No feedback loop: a write tags the mesh, and Blender evaluates it again in a second pass of
-the same update *without* calling the handlers again; and :func:`runtime.evaluate` writes
+the same update *without* calling the handlers again; and :func:`frame.evaluate` writes
 only when the evaluated pose (or a setting) differs from what it last wrote. The node group
 does not depend on the armature, so a pose change evaluates the mesh once, after the write.
 
@@ -18,10 +18,12 @@ does not depend on the armature, so a pose change evaluates the mesh once, after
 the blobs in the file) and check the meshes' topology against the binding's fingerprint.
 """
 
+import traceback
+
 import bpy
 from bpy.app.handlers import persistent
 
-from . import modifier, runtime
+from . import bind_state, bound_objects, deformer_cache, frame, modifier, redraw
 
 #: Object name → mode seen last (a full topology check runs when an object leaves Edit Mode).
 _modes = {}
@@ -29,41 +31,30 @@ _modes = {}
 _reported = set()
 
 
-def _tag_properties_redraw():
-    wm = bpy.context.window_manager
-    if wm is None:
-        return
-    for window in wm.windows:
-        for area in window.screen.areas:
-            if area.type == 'PROPERTIES':
-                area.tag_redraw()
-
-
 def evaluate_scene(scene, depsgraph, render=False):
     """Updates every bound character of the scene. Returns how many were rewritten."""
     written = 0
-    for obj in runtime.bound_objects(scene):
+    for obj in bound_objects.in_scene(scene):
         mode = obj.mode
         if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
-            runtime.check_topology(obj)
+            bind_state.check_topology(obj)
         _modes[obj.name] = mode
         arm = obj.sweep_deform.armature
         if arm is not None:
             key = ("armature", arm.name)
             if _modes.get(key) == 'EDIT' and arm.mode != 'EDIT':
-                runtime.forget_armature(arm)
+                deformer_cache.forget_armature(arm)
             _modes[key] = arm.mode
         if render and obj.hide_render:
             continue
         try:
-            written += runtime.evaluate(obj, depsgraph, render)
+            written += frame.evaluate(obj, depsgraph, render)
         except ReferenceError:
             continue
         except Exception as e:  # never let one character stop the others, or the frame
             message = f"Sweep Deform: '{obj.name}': {type(e).__name__}: {e}"
             if message not in _reported:
                 _reported.add(message)
-                import traceback
                 traceback.print_exc()
                 print(message)
     return written
@@ -74,7 +65,7 @@ def on_depsgraph_update_post(scene, depsgraph=None):
     if depsgraph is None:
         return
     if evaluate_scene(scene, depsgraph, render=depsgraph.mode == 'RENDER') and not bpy.app.background:
-        _tag_properties_redraw()
+        redraw.redraw_properties()
 
 
 @persistent
@@ -87,19 +78,19 @@ def on_frame_change_post(scene, depsgraph=None):
 
 @persistent
 def on_load_post(*_args):
-    runtime.clear()
+    deformer_cache.clear()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
         modifier.node_group()  # bring an older layout up to date
     for scene in bpy.data.scenes:
-        for obj in runtime.bound_objects(scene):
+        for obj in bound_objects.in_scene(scene):
             if obj.sweep_deform.state == 'BOUND':
-                runtime.check_topology(obj)
+                bind_state.check_topology(obj)
 
 
 @persistent
 def on_undo_redo_post(*_args):
-    runtime.clear()
+    deformer_cache.clear()
 
 
 _HANDLERS = (
@@ -123,4 +114,4 @@ def unregister():
         for h in [h for h in handlers if h is fn or getattr(h, "__qualname__", None) == fn.__qualname__
                   and getattr(h, "__module__", None) == fn.__module__]:
             handlers.remove(h)
-    runtime.clear()
+    deformer_cache.clear()

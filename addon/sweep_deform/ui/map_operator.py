@@ -1,13 +1,13 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""The "Bind Selected Through Map" operator (bind_through_map.py): select the meshes or point
+"""The "Bind Selected Through Map" operator (blender/bind_through_map.py): select the meshes or point
 clouds to bind, then the bound character last (active), as for Blender's "Copy to Selected"
 operators. Undoable; in the Object › Sweep Deform menu (and so in F3 search)."""
 
 import bpy
 from bpy.props import FloatProperty
 
-from . import bind, bind_through_map, native, native_dmap
-from .operators import VIEW3D_MT_sweep_deform
+from ..blender import bind_through_map, binding
+from ..core import native, native_dmap
 
 
 class OBJECT_OT_sweep_deform_bind_through_map(bpy.types.Operator):
@@ -39,7 +39,7 @@ class OBJECT_OT_sweep_deform_bind_through_map(bpy.types.Operator):
         targets = [o for o in context.selected_objects if o != source and o.type == 'MESH']
         try:
             snapped = bind_through_map.bind_through_map(targets, source, self.snap)
-        except (bind.BindError, native.NativeError, native.NativeLibraryError, ValueError) as e:
+        except (binding.BindError, native.NativeError, native.NativeLibraryError, ValueError) as e:
             self.report({'ERROR'}, f"Sweep Deform: {e}")
             return {'CANCELLED'}
         for t, n in zip(targets, snapped):
@@ -48,15 +48,4 @@ class OBJECT_OT_sweep_deform_bind_through_map(bpy.types.Operator):
         return {'FINISHED'}
 
 
-def _menu(self, context):
-    self.layout.operator(OBJECT_OT_sweep_deform_bind_through_map.bl_idname)
-
-
-def register():
-    bpy.utils.register_class(OBJECT_OT_sweep_deform_bind_through_map)
-    VIEW3D_MT_sweep_deform.append(_menu)
-
-
-def unregister():
-    VIEW3D_MT_sweep_deform.remove(_menu)
-    bpy.utils.unregister_class(OBJECT_OT_sweep_deform_bind_through_map)
+register, unregister = bpy.utils.register_classes_factory((OBJECT_OT_sweep_deform_bind_through_map,))

@@ -22,7 +22,7 @@ Blender offers. The node group does::
 
 import bpy
 
-from .rig_io import OFFSET_ATTRIBUTE
+from ..core.arrays import OFFSET_ATTRIBUTE
 
 GROUP_NAME = "Sweep Deform"
 MODIFIER_NAME = "Sweep Deform"

@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Array preparation between Blender's data and the core: numpy only, no ``bpy``.
+"""Arrays between Blender's data and the core: numpy only, no ``bpy``.
 
 Everything here takes and returns plain numpy arrays (float32 for geometry, int32 for
 indices, the ABI's types) or plain Python values, so it can be tested without Blender and
@@ -143,29 +143,3 @@ def volume_changes(rest, before, after):
     rest = np.asarray(rest, dtype=np.float64)
     safe = np.where(np.abs(rest) > 0.0, rest, 1.0)
     return (np.asarray(before) - rest) / safe, (np.asarray(after) - rest) / safe
-
-
-def sweep_labels(key_bones, bone_names, report=""):
-    """A readable name per sweep: the fitting report's chain name ("arm_l") when there is one,
-    else the bones its keys follow ("upperarm_l – lowerarm_l")."""
-    named = {}
-    if report:
-        try:
-            for chain in json.loads(report).get("chains", []):
-                if chain.get("sweep", -1) >= 0 and chain.get("name"):
-                    named[chain["sweep"]] = chain["name"]
-        except (ValueError, AttributeError, TypeError):
-            named = {}
-    labels = []
-    for s, bones in enumerate(key_bones):
-        if s in named:
-            labels.append(named[s])
-            continue
-        seen = []
-        for b in bones:
-            if 0 <= b < len(bone_names) and bone_names[b] not in seen:
-                seen.append(bone_names[b])
-        if len(seen) > 3:
-            seen = [seen[0], "…", seen[-1]]
-        labels.append(" – ".join(seen) if seen else "sweep")
-    return labels

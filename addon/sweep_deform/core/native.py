@@ -80,6 +80,8 @@ RigP = ctypes.POINTER(_RigT)
 BindingP = ctypes.POINTER(_BindingT)
 DeformerP = ctypes.POINTER(_DeformerT)
 FitResultP = ctypes.POINTER(_FitResultT)
+
+
 class _AnatomyT(_Opaque):
     pass
 
@@ -131,86 +133,85 @@ P_DOUBLE = ctypes.POINTER(ctypes.c_double)
 P_FLOAT = ctypes.POINTER(ctypes.c_float)
 Status = ctypes.c_int  # sd_status is a C enum (int)
 
-#: name -> (restype, argtypes, required). Every SD_API function of the header is here;
-#: ``required=False`` marks functions of a newer part of the ABI that an older build may lack.
+#: name -> (restype, argtypes). Every SD_API function of the header is here (a test compares).
 SIGNATURES = {
     # library
-    "sd_abi_version": (c_int32, [], True),
-    "sd_library_version": (c_char_p, [], True),
-    "sd_last_error": (c_char_p, [], True),
+    "sd_abi_version": (c_int32, []),
+    "sd_library_version": (c_char_p, []),
+    "sd_last_error": (c_char_p, []),
     # rig
-    "sd_rig_create": (Status, [c_int32, I32, F32, F32, F32, ctypes.POINTER(RigP)], True),
-    "sd_rig_destroy": (None, [RigP], True),
-    "sd_rig_clone": (Status, [RigP, ctypes.POINTER(RigP)], True),
-    "sd_rig_add_sweep": (Status, [RigP, c_int32, F32, F32, F32, I32, I32, F32, P_INT32], True),
-    "sd_rig_bone_count": (c_int32, [RigP], True),
-    "sd_rig_sweep_count": (c_int32, [RigP], True),
-    "sd_rig_key_count": (c_int32, [RigP, c_int32], True),
-    "sd_rig_get_keys": (Status, [RigP, c_int32, F32_OUT, F32_OUT, F32_OUT, I32_OUT, I32_OUT, F32_OUT], True),
-    "sd_rig_sweep_rest_volume": (Status, [RigP, c_int32, P_DOUBLE], True),
-    "sd_rig_evaluate_sweep": (Status, [RigP, c_int32, c_int32, F32, F32_OUT, F32_OUT, F32_OUT, F32_OUT, F32_OUT], True),
-    "sd_rig_serialize": (Status, [RigP, U8_OUT, c_int64, P_INT64], True),
-    "sd_rig_deserialize": (Status, [U8, c_int64, ctypes.POINTER(RigP)], True),
+    "sd_rig_create": (Status, [c_int32, I32, F32, F32, F32, ctypes.POINTER(RigP)]),
+    "sd_rig_destroy": (None, [RigP]),
+    "sd_rig_clone": (Status, [RigP, ctypes.POINTER(RigP)]),
+    "sd_rig_add_sweep": (Status, [RigP, c_int32, F32, F32, F32, I32, I32, F32, P_INT32]),
+    "sd_rig_bone_count": (c_int32, [RigP]),
+    "sd_rig_sweep_count": (c_int32, [RigP]),
+    "sd_rig_key_count": (c_int32, [RigP, c_int32]),
+    "sd_rig_get_keys": (Status, [RigP, c_int32, F32_OUT, F32_OUT, F32_OUT, I32_OUT, I32_OUT, F32_OUT]),
+    "sd_rig_sweep_rest_volume": (Status, [RigP, c_int32, P_DOUBLE]),
+    "sd_rig_evaluate_sweep": (Status, [RigP, c_int32, c_int32, F32, F32_OUT, F32_OUT, F32_OUT, F32_OUT, F32_OUT]),
+    "sd_rig_serialize": (Status, [RigP, U8_OUT, c_int64, P_INT64]),
+    "sd_rig_deserialize": (Status, [U8, c_int64, ctypes.POINTER(RigP)]),
     # binding
-    "sd_bind": (Status, [RigP, c_int32, F32, c_int32, I32, F32, c_int32, I32, F32, ctypes.POINTER(BindingP)], True),
-    "sd_binding_destroy": (None, [BindingP], True),
-    "sd_binding_vertex_count": (c_int32, [BindingP], True),
-    "sd_binding_get_parameters": (Status, [BindingP, c_int32, I32_OUT, F32_OUT, F32_OUT], True),
-    "sd_binding_serialize": (Status, [BindingP, U8_OUT, c_int64, P_INT64], True),
-    "sd_binding_deserialize": (Status, [U8, c_int64, ctypes.POINTER(BindingP)], True),
+    "sd_bind": (Status, [RigP, c_int32, F32, c_int32, I32, F32, c_int32, I32, F32, ctypes.POINTER(BindingP)]),
+    "sd_binding_destroy": (None, [BindingP]),
+    "sd_binding_vertex_count": (c_int32, [BindingP]),
+    "sd_binding_get_parameters": (Status, [BindingP, c_int32, I32_OUT, F32_OUT, F32_OUT]),
+    "sd_binding_serialize": (Status, [BindingP, U8_OUT, c_int64, P_INT64]),
+    "sd_binding_deserialize": (Status, [U8, c_int64, ctypes.POINTER(BindingP)]),
     # deformation
-    "sd_deformer_create": (Status, [RigP, BindingP, ctypes.POINTER(DeformerP)], True),
-    "sd_deformer_destroy": (None, [DeformerP], True),
-    "sd_deformer_set_volume_preservation": (Status, [DeformerP, c_int32, c_float], True),
-    "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32], True),
-    "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT], True),
-    "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT], True),
-    "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT], True),
+    "sd_deformer_create": (Status, [RigP, BindingP, ctypes.POINTER(DeformerP)]),
+    "sd_deformer_destroy": (None, [DeformerP]),
+    "sd_deformer_set_volume_preservation": (Status, [DeformerP, c_int32, c_float]),
+    "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32]),
+    "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
+    "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
+    "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
     # measurements (reports and tests)
-    "sd_measure_volume": (Status, [c_int32, F32, c_int32, I32, P_DOUBLE], True),
-    "sd_measure_intersections": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, P_INT64], True),
-    "sd_measure_cross_sections": (Status, [c_int32, F32, c_int32, I32, c_int32, F32, F32, ctypes.c_float, F64_OUT], True),
+    "sd_measure_volume": (Status, [c_int32, F32, c_int32, I32, P_DOUBLE]),
+    "sd_measure_intersections": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, P_INT64]),
+    "sd_measure_cross_sections": (Status, [c_int32, F32, c_int32, I32, c_int32, F32, F32, ctypes.c_float, F64_OUT]),
     # anatomical effects (Sect. 4.3, 4.4)
-    "sd_anatomy_create": (Status, [RigP, BindingP, c_int32, I32, ctypes.POINTER(AnatomyP)], True),
-    "sd_anatomy_destroy": (None, [AnatomyP], True),
-    "sd_anatomy_add_joint": (Status, [AnatomyP, c_int32, c_int32, F32, P_INT32], True),
-    "sd_anatomy_joint_count": (c_int32, [AnatomyP], True),
-    "sd_anatomy_set_joint_effects": (Status, [AnatomyP, c_int32, c_int32], True),
-    "sd_anatomy_get_joint_effects": (Status, [AnatomyP, c_int32, P_INT32], True),
-    "sd_anatomy_set_joint_parameter": (Status, [AnatomyP, c_int32, c_int32, ctypes.c_float], True),
-    "sd_anatomy_get_joint_parameter": (Status, [AnatomyP, c_int32, c_int32, ctypes.POINTER(ctypes.c_float)], True),
-    "sd_anatomy_set_joint_proxy": (Status, [AnatomyP, c_int32, c_int32, F32, c_int32, I32, ctypes.c_float], True),
-    "sd_anatomy_set_volume_feedback": (Status, [AnatomyP, c_int32, c_int32], True),
-    "sd_anatomy_set_folding_iterations": (Status, [AnatomyP, c_int32], True),
-    "sd_anatomy_apply": (Status, [AnatomyP, DeformerP, c_int32, F32, c_int32, F32_OUT], True),
-    "sd_deform_with_anatomy": (Status, [DeformerP, AnatomyP, c_int32, F32, c_int32, F32_OUT], True),
-    "sd_anatomy_get_stats": (Status, [AnatomyP, c_int32, F64_OUT], True),
-    "sd_anatomy_get_volume_offsets": (Status, [AnatomyP, c_int32, F64_OUT], True),
-    "sd_anatomy_count_intersections": (Status, [AnatomyP, c_int32, F32, P_INT32], True),
+    "sd_anatomy_create": (Status, [RigP, BindingP, c_int32, I32, ctypes.POINTER(AnatomyP)]),
+    "sd_anatomy_destroy": (None, [AnatomyP]),
+    "sd_anatomy_add_joint": (Status, [AnatomyP, c_int32, c_int32, F32, P_INT32]),
+    "sd_anatomy_joint_count": (c_int32, [AnatomyP]),
+    "sd_anatomy_set_joint_effects": (Status, [AnatomyP, c_int32, c_int32]),
+    "sd_anatomy_get_joint_effects": (Status, [AnatomyP, c_int32, P_INT32]),
+    "sd_anatomy_set_joint_parameter": (Status, [AnatomyP, c_int32, c_int32, ctypes.c_float]),
+    "sd_anatomy_get_joint_parameter": (Status, [AnatomyP, c_int32, c_int32, ctypes.POINTER(ctypes.c_float)]),
+    "sd_anatomy_set_joint_proxy": (Status, [AnatomyP, c_int32, c_int32, F32, c_int32, I32, ctypes.c_float]),
+    "sd_anatomy_set_volume_feedback": (Status, [AnatomyP, c_int32, c_int32]),
+    "sd_anatomy_set_folding_iterations": (Status, [AnatomyP, c_int32]),
+    "sd_anatomy_apply": (Status, [AnatomyP, DeformerP, c_int32, F32, c_int32, F32_OUT]),
+    "sd_deform_with_anatomy": (Status, [DeformerP, AnatomyP, c_int32, F32, c_int32, F32_OUT]),
+    "sd_anatomy_get_stats": (Status, [AnatomyP, c_int32, F64_OUT]),
+    "sd_anatomy_get_volume_offsets": (Status, [AnatomyP, c_int32, F64_OUT]),
+    "sd_anatomy_count_intersections": (Status, [AnatomyP, c_int32, F32, P_INT32]),
     # automatic fitting
     "sd_fit_rig": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, F32, F32, F32,
                             ctypes.POINTER(c_char_p), c_int32, I32, F32, c_int32, c_int32, I32, I32,
-                            ctypes.POINTER(FitResultP)], True),
-    "sd_fit_result_destroy": (None, [FitResultP], True),
-    "sd_fit_result_rig": (Status, [FitResultP, ctypes.POINTER(RigP)], True),
-    "sd_fit_result_slot_counts": (Status, [FitResultP, P_INT32, P_INT32], True),
-    "sd_fit_result_weights": (Status, [FitResultP, c_int32, c_int32, I32_OUT, F32_OUT, c_int32, I32_OUT, F32_OUT], True),
-    "sd_fit_result_report": (c_char_p, [FitResultP], True),
+                            ctypes.POINTER(FitResultP)]),
+    "sd_fit_result_destroy": (None, [FitResultP]),
+    "sd_fit_result_rig": (Status, [FitResultP, ctypes.POINTER(RigP)]),
+    "sd_fit_result_slot_counts": (Status, [FitResultP, P_INT32, P_INT32]),
+    "sd_fit_result_weights": (Status, [FitResultP, c_int32, c_int32, I32_OUT, F32_OUT, c_int32, I32_OUT, F32_OUT]),
+    "sd_fit_result_report": (c_char_p, [FitResultP]),
     # key-ellipse editing (Sect. 4.2): pose-space corrections
-    "sd_rig_key_joint": (Status, [RigP, c_int32, c_int32, P_INT32, P_INT32, P_FLOAT], True),
-    "sd_rig_key_joint_angle": (Status, [RigP, c_int32, c_int32, c_int32, F32, P_FLOAT], True),
-    "sd_rig_set_key_correction": (Status, [RigP, c_int32, c_int32, c_float, F32, c_int32, P_INT32], True),
-    "sd_rig_remove_key_correction": (Status, [RigP, c_int32, c_int32, c_int32], True),
-    "sd_rig_mute_key_correction": (Status, [RigP, c_int32, c_int32, c_int32, c_int32], True),
-    "sd_rig_key_correction_count": (c_int32, [RigP, c_int32, c_int32], True),
-    "sd_rig_get_key_corrections": (Status, [RigP, c_int32, c_int32, c_int32, F32_OUT, F32_OUT, I32_OUT], True),
-    "sd_rig_key_correction_at": (Status, [RigP, c_int32, c_int32, c_float, F32_OUT], True),
-    "sd_rig_correction_count": (c_int32, [RigP], True),
-    "sd_rig_get_corrections": (Status, [RigP, c_int32, I32_OUT, I32_OUT, F32_OUT, F32_OUT, I32_OUT], True),
-    "sd_rig_set_corrections": (Status, [RigP, c_int32, I32, I32, F32, F32, I32], True),
-    "sd_rig_pose_keys": (Status, [RigP, c_int32, c_int32, F32, c_int32, c_int32, F32_OUT, F32_OUT, F32_OUT, F32_OUT], True),
-    "sd_rig_evaluate_posed_sweep": (Status, [RigP, c_int32, c_int32, F32, c_int32, F32, F32_OUT, F32_OUT, F32_OUT], True),
-    "sd_deformer_set_rig_corrections": (Status, [DeformerP, c_int32, I32, I32, F32, F32, I32], True),
+    "sd_rig_key_joint": (Status, [RigP, c_int32, c_int32, P_INT32, P_INT32, P_FLOAT]),
+    "sd_rig_key_joint_angle": (Status, [RigP, c_int32, c_int32, c_int32, F32, P_FLOAT]),
+    "sd_rig_set_key_correction": (Status, [RigP, c_int32, c_int32, c_float, F32, c_int32, P_INT32]),
+    "sd_rig_remove_key_correction": (Status, [RigP, c_int32, c_int32, c_int32]),
+    "sd_rig_mute_key_correction": (Status, [RigP, c_int32, c_int32, c_int32, c_int32]),
+    "sd_rig_key_correction_count": (c_int32, [RigP, c_int32, c_int32]),
+    "sd_rig_get_key_corrections": (Status, [RigP, c_int32, c_int32, c_int32, F32_OUT, F32_OUT, I32_OUT]),
+    "sd_rig_key_correction_at": (Status, [RigP, c_int32, c_int32, c_float, F32_OUT]),
+    "sd_rig_correction_count": (c_int32, [RigP]),
+    "sd_rig_get_corrections": (Status, [RigP, c_int32, I32_OUT, I32_OUT, F32_OUT, F32_OUT, I32_OUT]),
+    "sd_rig_set_corrections": (Status, [RigP, c_int32, I32, I32, F32, F32, I32]),
+    "sd_rig_pose_keys": (Status, [RigP, c_int32, c_int32, F32, c_int32, c_int32, F32_OUT, F32_OUT, F32_OUT, F32_OUT]),
+    "sd_rig_evaluate_posed_sweep": (Status, [RigP, c_int32, c_int32, F32, c_int32, F32, F32_OUT, F32_OUT, F32_OUT]),
+    "sd_deformer_set_rig_corrections": (Status, [DeformerP, c_int32, I32, I32, F32, F32, I32]),
 }
 
 
@@ -220,10 +221,13 @@ _lib = None
 _load_error = None
 
 
+#: The extension's root folder (this file is in its core/).
+EXTENSION_DIR = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
 def bundled_path(file_name, override_variable):
     """$override_variable if set, else <extension>/lib/<file_name>."""
-    return os.environ.get(override_variable) or os.path.join(os.path.dirname(os.path.abspath(__file__)), "lib",
-                                                             file_name)
+    return os.environ.get(override_variable) or os.path.join(EXTENSION_DIR, "lib", file_name)
 
 
 def open_library(path, what):
@@ -258,12 +262,11 @@ def _load():
             f"{path} has ABI version {found}, this add-on needs {ABI_VERSION}: "
             "the add-on and its library are from different builds.")
     missing = []
-    for name, (restype, argtypes, required) in SIGNATURES.items():
+    for name, (restype, argtypes) in SIGNATURES.items():
         try:
             fn = getattr(lib, name)
         except AttributeError:
-            if required:
-                missing.append(name)
+            missing.append(name)
             continue
         fn.restype = restype
         fn.argtypes = argtypes
@@ -294,11 +297,6 @@ def available():
     except NativeLibraryError as e:
         return False, str(e)
     return True, lib.sd_library_version().decode()
-
-
-def has_function(name):
-    """Whether the loaded library exports `name` (for optional parts of the ABI)."""
-    return hasattr(library(), name)
 
 
 def _check(name, status):
@@ -367,7 +365,8 @@ class Rig(_Handle):
     @classmethod
     def create(cls, parents, rest, heads, tails):
         """parents #B int, rest #B*16 column-major, heads/tails #B*3."""
-        parents, rest, heads, tails = _i32(parents).ravel(), _f32(rest).ravel(), _f32(heads).ravel(), _f32(tails).ravel()
+        parents, rest = _i32(parents).ravel(), _f32(rest).ravel()
+        heads, tails = _f32(heads).ravel(), _f32(tails).ravel()
         B = parents.size
         _expect_size("rest", rest, 16 * B)
         _expect_size("heads", heads, 3 * B)
@@ -379,11 +378,6 @@ class Rig(_Handle):
     @classmethod
     def deserialize(cls, blob):
         return cls(_deserialize("sd_rig_deserialize", RigP, blob))
-
-    def clone(self):
-        out = RigP()
-        _call("sd_rig_clone", self.ptr, ctypes.byref(out))
-        return Rig(out)
 
     def add_sweep(self, centers, orientations, half_axes, bones, joint_parents, fractions):
         """Keys: centers #K*3, orientations #K*4 (w,x,y,z), half_axes #K*2, bones #K,
@@ -425,22 +419,6 @@ class Rig(_Handle):
               out["bones"], out["joint_parents"], out["fractions"])
         return out
 
-    def rest_volume(self, sweep):
-        v = ctypes.c_double()
-        _call("sd_rig_sweep_rest_volume", self.ptr, sweep, ctypes.byref(v))
-        return v.value
-
-    def evaluate_sweep(self, sweep, u):
-        """Rest-pose sweep at parameters u in [0,1]: centers, tangents, normals, rotations, half_axes."""
-        u = _f32(u).ravel()
-        n = u.size
-        out = dict(centers=np.empty((n, 3), np.float32), tangents=np.empty((n, 3), np.float32),
-                   normals=np.empty((n, 3), np.float32), rotations=np.empty((n, 9), np.float32),
-                   half_axes=np.empty((n, 2), np.float32))
-        _call("sd_rig_evaluate_sweep", self.ptr, sweep, n, u, out["centers"], out["tangents"],
-              out["normals"], out["rotations"], out["half_axes"])
-        return out
-
     def serialize(self):
         return _serialize("sd_rig_serialize", self.ptr)
 
@@ -455,43 +433,12 @@ class Rig(_Handle):
               ctypes.byref(rest))
         return parent.value, child.value, rest.value
 
-    def key_joint_angle(self, sweep, key, pose=None):
-        """The key's joint angle (radians) in `pose` (#B*16 float32; None = rest)."""
-        out = ctypes.c_float()
-        pose = self._pose(pose)
-        _call("sd_rig_key_joint_angle", self.ptr, sweep, key, self.bone_count, pose, ctypes.byref(out))
-        return out.value
-
     def _pose(self, pose):
         if pose is None:
             return None
         pose = _f32(pose).ravel()
         _expect_size("pose", pose, 16 * self.bone_count)
         return pose
-
-    def set_key_correction(self, sweep, key, angle, values, muted=False):
-        """Adds a correction, or replaces the one at the same angle; returns its index."""
-        values = _f32(values).ravel()
-        _expect_size("values", values, 8)
-        index = ctypes.c_int32(-1)
-        _call("sd_rig_set_key_correction", self.ptr, sweep, key, float(angle), values, 1 if muted else 0,
-              ctypes.byref(index))
-        return index.value
-
-    def remove_key_correction(self, sweep, key, index):
-        _call("sd_rig_remove_key_correction", self.ptr, sweep, key, index)
-
-    def mute_key_correction(self, sweep, key, index, muted=True):
-        _call("sd_rig_mute_key_correction", self.ptr, sweep, key, index, 1 if muted else 0)
-
-    def key_corrections(self, sweep, key):
-        """(angles #N, values (N,8), muted #N int32) of one key, sorted by angle."""
-        n = library().sd_rig_key_correction_count(self.ptr, sweep, key)
-        if n < 0:
-            _check("sd_rig_key_correction_count", 1)
-        angles, values, muted = np.empty(n, np.float32), np.empty((n, 8), np.float32), np.empty(n, np.int32)
-        _call("sd_rig_get_key_corrections", self.ptr, sweep, key, n, angles, values, muted)
-        return angles, values, muted
 
     def key_correction_at(self, sweep, key, angle):
         """The interpolated correction (8 values) of a key at a joint angle."""
@@ -649,11 +596,6 @@ class Deformer(_Handle):
         _call("sd_deformer_get_volumes", self.ptr, self.sweep_count, self._rest, self._before, self._after)
         return self._rest.copy(), self._before.copy(), self._after.copy()
 
-    def volume_iterations(self):
-        it = np.empty(self.sweep_count, np.int32)
-        _call("sd_deformer_get_volume_iterations", self.ptr, self.sweep_count, it)
-        return it
-
     def set_rig_corrections(self, sweeps, keys, angles, values, muted=None):
         """Replaces the key-ellipse corrections of the deformer's rig (as Rig.set_corrections)."""
         args = _correction_arrays(sweeps, keys, angles, values, muted)
@@ -711,24 +653,11 @@ class Anatomy(_Handle):
     def set_joint_effects(self, joint, effects):
         _call("sd_anatomy_set_joint_effects", self.ptr, int(joint), int(effects))
 
-    def joint_effects(self, joint):
-        out = ctypes.c_int32()
-        _call("sd_anatomy_get_joint_effects", self.ptr, int(joint), ctypes.byref(out))
-        return out.value
-
     def set_joint_parameter(self, joint, parameter, value):
         _call("sd_anatomy_set_joint_parameter", self.ptr, int(joint), int(parameter), float(value))
 
-    def joint_parameter(self, joint, parameter):
-        out = ctypes.c_float()
-        _call("sd_anatomy_get_joint_parameter", self.ptr, int(joint), int(parameter), ctypes.byref(out))
-        return out.value
-
     def set_volume_feedback(self, mode, restore=True):
         _call("sd_anatomy_set_volume_feedback", self.ptr, int(mode), 1 if restore else 0)
-
-    def set_folding_iterations(self, iterations):
-        _call("sd_anatomy_set_folding_iterations", self.ptr, int(iterations))
 
     def deform(self, deformer, pose, out=None):
         """sd_deform_with_anatomy: the deformer's frame, then the effects and the volume

@@ -16,9 +16,11 @@ fitting). Tests may replace it with a rig of their own; the product has no other
 
 import uuid
 
+import bpy
 import numpy as np
 
-from . import modifier, native, persistence, rig_io, transforms
+from ..core import arrays, checks, native
+from . import anatomy, deformer_cache, mesh_data, modifier, persistence
 
 #: Influences per vertex read from the vertex groups for the fitting.
 SKIN_SLOTS = 8
@@ -53,7 +55,6 @@ class BindOutputs:
 def find_armature(obj, name=""):
     """The armature that drives `obj`: by `name`, else its (first) Armature modifier's
     object, else its parent if that is an armature. None if there is none."""
-    import bpy
     if name:
         arm = bpy.data.objects.get(name)
         if arm is None or arm.type != 'ARMATURE':
@@ -82,13 +83,12 @@ def linked_reason(obj):
     return None
 
 
-
 def skeleton_arrays(arm):
     """Bone names, parents, rest matrices, heads, tails of an armature (bone order)."""
     bones = arm.data.bones
     B = len(bones)
     names = [b.name for b in bones]
-    parents = rig_io.parent_indices(names, [b.parent.name if b.parent else "" for b in bones])
+    parents = arrays.parent_indices(names, [b.parent.name if b.parent else "" for b in bones])
     rest = np.empty(B * 16, np.float32)
     bones.foreach_get('matrix_local', rest)  # column-major, as the core wants
     heads = np.empty(B * 3, np.float32)
@@ -111,7 +111,7 @@ def skin_weights(obj, arm, bone_names, slots=SKIN_SLOTS):
     flat = [(g.group, g.weight) for v in mesh.vertices for g in v.groups]
     groups = np.fromiter((g for g, _ in flat), np.int64, len(flat))
     weights = np.fromiter((w for _, w in flat), np.float32, len(flat))
-    ids, w = rig_io.dense_weights_from_flat(counts, groups, weights, group_to_bone, slots)
+    ids, w = arrays.dense_weights_from_flat(counts, groups, weights, group_to_bone, slots)
     used = max(int((w > 0.0).sum(axis=1).max(initial=0)), 1)  # no empty slots for the core
     return np.ascontiguousarray(ids[:, :used]), np.ascontiguousarray(w[:, :used])
 
@@ -127,7 +127,7 @@ def check_bindable(obj, arm):
     linked = linked_reason(obj)
     if linked:
         raise BindError(f"{linked}: bind it in that file (a linked character keeps the binding it was saved with)")
-    problem = transforms.transforms_problem(obj.matrix_world, obj.name, arm.matrix_world, arm.name)
+    problem = checks.transforms_problem(obj.matrix_world, obj.name, arm.matrix_world, arm.name)
     if problem:
         raise BindError(f"{problem}: fix it before binding")
     if mesh.users > 1:
@@ -146,11 +146,8 @@ def read_inputs(obj, arm):
     inp.object_name, inp.armature_name = obj.name, arm.name
     m = arm.matrix_world.inverted() @ obj.matrix_world
     inp.mesh_to_armature = [list(row) for row in m]
-    inp.positions = rig_io.transform_points(inp.mesh_to_armature, persistence.mesh_positions(mesh))
-    mesh.calc_loop_triangles()
-    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-    mesh.loop_triangles.foreach_get('vertices', tris)
-    inp.triangles = tris.reshape(-1, 3)
+    inp.positions = arrays.transform_points(inp.mesh_to_armature, mesh_data.vertex_positions(mesh))
+    inp.triangles = mesh_data.triangles(mesh)
     inp.bone_names, inp.parents, inp.rest, inp.heads, inp.tails = skeleton_arrays(arm)
     inp.skin_bones, inp.skin_weights = skin_weights(obj, arm, inp.bone_names)
     return inp
@@ -208,13 +205,12 @@ def fit_and_bind(inp, stage=None):
 def store(obj, arm, inp, out):
     """Stage 4: saves the binding in the object, puts the modifier in the stack, switches
     off the Armature modifier it replaces (remembering how it was)."""
-    from . import runtime
     if len(obj.data.vertices) != out.binding.vertex_count:
         raise BindError("The mesh changed while binding; bind again")
     s = obj.sweep_deform
     persistence.store(obj, out.rig_blob, out.binding.serialize(), inp.bone_names, inp.rest,
                       out.rig.sweep_count, out.report)
-    runtime.fill_joints(obj)  # the elbows and knees of the anatomical effects, from the report
+    anatomy.fill_joints(obj)  # the elbows and knees of the anatomical effects, from the report
     s.armature = arm
     s.bind_id = uuid.uuid4().hex
     s.state = 'BOUND'
@@ -241,23 +237,9 @@ def store(obj, arm, inp, out):
     md = modifier.find(obj)
     if md is None:
         md = modifier.ensure(obj, before=replaced)
-    runtime.forget(obj)
+    deformer_cache.forget(obj)
     obj.update_tag()
     return md
-
-
-def report_warnings(report):
-    """The fitting report's warnings and failed chains, as short sentences."""
-    import json
-    try:
-        r = json.loads(report) if report else {}
-    except ValueError:
-        return []
-    lines = list(r.get("warnings", []))
-    for chain in r.get("chains", []):
-        if chain.get("sweep", 0) < 0 or "error" in chain:
-            lines.append(f"chain {chain.get('name', '?')} got no sweep: {chain.get('error', 'not fitted')}")
-    return lines
 
 
 def bind_object(obj, arm):
@@ -270,7 +252,6 @@ def bind_object(obj, arm):
 def unbind(obj, restore_armature_modifier=True):
     """Removes the binding and the offsets; restores the Armature modifier it replaced.
     The Sweep Deform modifier itself stays (unbound, it does nothing)."""
-    from . import runtime
     s = obj.sweep_deform
     if restore_armature_modifier and s.armature_modifier:
         md = obj.modifiers.get(s.armature_modifier)
@@ -283,6 +264,6 @@ def unbind(obj, restore_armature_modifier=True):
     s.armature_modifier_object = None
     persistence.clear(obj)
     s.message = ""
-    runtime.forget(obj)
+    deformer_cache.forget(obj)
     if obj.type == 'MESH':
         modifier.clear_offsets(obj.data)

@@ -7,7 +7,9 @@ keyframed). The editing part is also in the 3D viewport's sidebar (Sweep Deform 
 
 import bpy
 
-from . import key_edit, modifier, native, operators, runtime, rig_io
+from ..blender import deformer_cache, key_ellipses, modifier
+from ..core import arrays, key_edit, native
+from . import bind_operators, key_operators
 
 
 def _relevant(obj):
@@ -60,7 +62,7 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
             row.label(text="Not bound", icon='UNLINKED')
         if s.state != 'UNBOUND' and s.armature_modifier:
             layout.label(text=f"'{s.armature_modifier}' off while bound", icon='MOD_ARMATURE')
-        e = runtime.peek(obj)
+        e = deformer_cache.peek(obj)
         if e is not None and e.error:
             box = layout.box()
             box.alert = True
@@ -68,10 +70,10 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
                 box.label(text=line)
 
         row = layout.row(align=True)
-        row.operator(operators.OBJECT_OT_sweep_deform_bind.bl_idname,
+        row.operator(bind_operators.OBJECT_OT_sweep_deform_bind.bl_idname,
                      text="Bind" if s.state == 'UNBOUND' else "Bind Again", icon='LINKED')
         if s.state != 'UNBOUND':
-            row.operator(operators.OBJECT_OT_sweep_deform_unbind.bl_idname, text="Unbind", icon='UNLINKED')
+            row.operator(bind_operators.OBJECT_OT_sweep_deform_unbind.bl_idname, text="Unbind", icon='UNLINKED')
         if s.state == 'BOUND':
             layout.operator_menu_enum("object.sweep_deform_bake", "target", text="Bake", icon='FILE_CACHE')
 
@@ -105,13 +107,13 @@ class OBJECT_PT_sweep_deform_volumes(_BoundSubPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         obj = context.object
-        e = runtime.peek(obj)
+        e = deformer_cache.peek(obj)
         volumes = e.volumes() if e is not None else None
         if volumes is None:
             layout.label(text="Pose the armature to see the volumes")
             return
         rest, before, after = volumes
-        change_before, change_after = rig_io.volume_changes(rest, before, after)
+        change_before, change_after = arrays.volume_changes(rest, before, after)
         col = layout.column(align=True)
         head = col.row().split(factor=0.5)
         head.label(text="Limb")
@@ -160,7 +162,7 @@ class OBJECT_PT_sweep_deform_anatomy(_BoundSubPanel, bpy.types.Panel):
             sub = row.row(align=True)
             sub.active = j.use_bulge
             sub.prop(j, "bulge_strength", text="Bulge")
-        e = runtime.peek(obj)
+        e = deformer_cache.peek(obj)
         if e is None or not s.use_anatomy:
             return
         if e.anatomy_error:
@@ -186,7 +188,7 @@ class OBJECT_PT_sweep_deform_anatomy(_BoundSubPanel, bpy.types.Panel):
 
 def key_label(obj, sweep, key):
     """A readable name of a key ellipse: limb, index, role and joint bone."""
-    e = runtime.peek(obj)
+    e = deformer_cache.peek(obj)
     if e is None or e.rig is None or not 0 <= sweep < e.rig.sweep_count:
         return f"sweep {sweep} · key {key}"
     K = e.rig.key_count(sweep)
@@ -196,7 +198,7 @@ def key_label(obj, sweep, key):
     joint_key = bool(e.rig.keys(sweep)["joint_parents"][key] >= 0)
     _, child, _ = e.rig.key_joint(sweep, key)
     name = e.bone_names[child] if 0 <= child < len(e.bone_names) else ""
-    return key_edit.key_label(label, key, K, joint_key, name)
+    return key_edit.format_key_label(label, key, K, joint_key, name)
 
 
 class SWEEPDEFORM_UL_corrections(bpy.types.UIList):
@@ -211,7 +213,7 @@ class SWEEPDEFORM_UL_corrections(bpy.types.UIList):
         sub.alignment = 'RIGHT'
         sub.label(text=key_edit.degrees(item.angle))
         sub.prop(item, "mute", text="", icon='HIDE_ON' if item.mute else 'HIDE_OFF', emboss=False)
-        op = sub.operator(operators.OBJECT_OT_sweep_deform_correction_remove.bl_idname, text="", icon='X',
+        op = sub.operator(key_operators.OBJECT_OT_sweep_deform_correction_remove.bl_idname, text="", icon='X',
                           emboss=False)
         op.index = index
 
@@ -230,12 +232,12 @@ def draw_key_editing(layout, context, obj, compact=False):
     s = obj.sweep_deform
     row = layout.row()
     row.scale_y = 1.3
-    row.operator(operators.OBJECT_OT_sweep_deform_edit_keys.bl_idname, text="Edit Key Ellipses",
+    row.operator(key_operators.OBJECT_OT_sweep_deform_edit_keys.bl_idname, text="Edit Key Ellipses",
                  icon='MESH_CIRCLE', depress=s.edit_keys)
     if s.state != 'BOUND':
         layout.label(text="Bind first", icon='INFO')
         return
-    e = runtime.peek(obj)
+    e = deformer_cache.peek(obj)
     col = layout.column(align=True)
     row = col.row(align=True)
     row.prop(s, "active_sweep")
@@ -243,7 +245,7 @@ def draw_key_editing(layout, context, obj, compact=False):
     if s.active_sweep >= 0 and s.active_key >= 0:
         col.label(text=key_label(obj, s.active_sweep, s.active_key), icon='MESH_CIRCLE')
         try:
-            st = runtime.key_state(obj, s.active_sweep, s.active_key)
+            st = key_ellipses.key_state(obj, s.active_sweep, s.active_key)
         except (RuntimeError, native.NativeError, ValueError, IndexError) as err:
             box = layout.box()
             box.alert = True
@@ -270,8 +272,8 @@ def draw_key_editing(layout, context, obj, compact=False):
     row.template_list("SWEEPDEFORM_UL_corrections", "", s, "corrections", s, "active_correction",
                       rows=3 if compact else 4)
     side = row.column(align=True)
-    side.operator(operators.OBJECT_OT_sweep_deform_correction_remove.bl_idname, text="", icon='REMOVE')
-    side.operator(operators.OBJECT_OT_sweep_deform_key_clear.bl_idname, text="", icon='TRASH')
+    side.operator(key_operators.OBJECT_OT_sweep_deform_correction_remove.bl_idname, text="", icon='REMOVE')
+    side.operator(key_operators.OBJECT_OT_sweep_deform_key_clear.bl_idname, text="", icon='TRASH')
     layout.prop(s, "list_active_key_only")
     if 0 <= s.active_correction < len(s.corrections):
         c = s.corrections[s.active_correction]

@@ -9,16 +9,19 @@
   damaged blob is refused by the core instead of deforming wrongly.
 * In ``Object.sweep_deform``: the rig's bone names (the pose is gathered by name), the mesh's
   element counts, a SHA-1 of its connectivity and of its rest positions.
-* Native objects are never saved: the runtime cache re-creates a deformer lazily after load or
-  undo (see runtime.py).
+* Native objects are never saved: the deformer cache re-creates a deformer lazily after load or
+  undo (see deformer_cache.py).
 * Key-ellipse corrections (Sect. 4.2) are properties of ``Object.sweep_deform`` (saved and
   undone like any property); when the file is saved, the rig blob gets a copy of them
   (format version 2), so the blob alone describes the edited rig for other tools.
 """
 
+import bpy
 import numpy as np
+from bpy.app.handlers import persistent
 
-from . import native, rig_io
+from ..core import arrays, native
+from . import corrections, mesh_data
 
 RIG_KEY = "_sweep_deform_rig"
 BINDING_KEY = "_sweep_deform_binding"
@@ -27,29 +30,6 @@ BINDING_KEY = "_sweep_deform_binding"
 REST_POSE_KEY = "_sweep_deform_rest_pose"
 #: The fitting's JSON report (for inspection; not needed to deform).
 REPORT_KEY = "_sweep_deform_fit_report"
-
-
-# ---- reading the mesh -------------------------------------------------------------------
-
-
-def mesh_counts(mesh):
-    return rig_io.topology_counts(len(mesh.vertices), len(mesh.edges), len(mesh.loops), len(mesh.polygons))
-
-
-def mesh_positions(mesh):
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get('co', co)
-    return co.reshape(-1, 3)
-
-
-def topology_fingerprint(mesh):
-    edges = np.empty(len(mesh.edges) * 2, np.int32)
-    mesh.edges.foreach_get('vertices', edges)
-    loops = np.empty(len(mesh.loops), np.int32)
-    mesh.loops.foreach_get('vertex_index', loops)
-    totals = np.empty(len(mesh.polygons), np.int32)
-    mesh.polygons.foreach_get('loop_total', totals)
-    return rig_io.topology_fingerprint(edges, loops, totals)
 
 
 # ---- storing ----------------------------------------------------------------------------
@@ -75,10 +55,10 @@ def store(obj, rig_blob, binding_blob, bone_names, rest_pose, sweep_count, repor
     _put_bytes(obj, BINDING_KEY, binding_blob)
     _put_bytes(obj, REST_POSE_KEY, np.ascontiguousarray(rest_pose, np.float32).tobytes())
     obj[REPORT_KEY] = report
-    s.bone_names = rig_io.encode_names(bone_names)
-    s.vertex_count, s.edge_count, s.loop_count, s.polygon_count = mesh_counts(mesh)
-    s.topology = topology_fingerprint(mesh)
-    s.rest_positions = rig_io.positions_fingerprint(mesh_positions(mesh))
+    s.bone_names = arrays.encode_names(bone_names)
+    s.vertex_count, s.edge_count, s.loop_count, s.polygon_count = mesh_data.counts(mesh)
+    s.topology = mesh_data.topology_fingerprint(mesh)
+    s.rest_positions = arrays.positions_fingerprint(mesh_data.vertex_positions(mesh))
     s.sweep_count = sweep_count
     s.library_version = native.library_version()
 
@@ -104,7 +84,7 @@ def has_blobs(obj):
 def load_skeleton(obj):
     """(bone names, rest pose #B*16 float32) the object was bound with; KeyError when none."""
     rest = np.frombuffer(bytes(obj[REST_POSE_KEY]), dtype=np.float32).copy()
-    return rig_io.decode_names(obj.sweep_deform.bone_names), rest
+    return arrays.decode_names(obj.sweep_deform.bone_names), rest
 
 
 def load(obj):
@@ -120,16 +100,16 @@ def load(obj):
 
 def counts_match(obj):
     s = obj.sweep_deform
-    return mesh_counts(obj.data) == [s.vertex_count, s.edge_count, s.loop_count, s.polygon_count]
+    return mesh_data.counts(obj.data) == [s.vertex_count, s.edge_count, s.loop_count, s.polygon_count]
 
 
 def topology_matches(obj):
     """Counts first (free), then the connectivity hash."""
-    return counts_match(obj) and topology_fingerprint(obj.data) == obj.sweep_deform.topology
+    return counts_match(obj) and mesh_data.topology_fingerprint(obj.data) == obj.sweep_deform.topology
 
 
 def rest_positions_match(obj):
-    return rig_io.positions_fingerprint(mesh_positions(obj.data)) == obj.sweep_deform.rest_positions
+    return arrays.positions_fingerprint(mesh_data.vertex_positions(obj.data)) == obj.sweep_deform.rest_positions
 
 
 # ---- corrections into the rig blob (at save) ---------------------------------------------
@@ -140,10 +120,9 @@ def store_corrections(obj):
     Returns True if the blob was rewritten."""
     if RIG_KEY not in obj:
         return False
-    from . import runtime
     old = bytes(obj[RIG_KEY])
     rig = native.Rig.deserialize(old)
-    rig.set_corrections(*runtime.correction_arrays(obj.sweep_deform))
+    rig.set_corrections(*corrections.correction_arrays(obj.sweep_deform))
     new = rig.serialize()
     if new == old:
         return False
@@ -152,7 +131,6 @@ def store_corrections(obj):
 
 
 def _on_save_pre(*_args):
-    import bpy
     for obj in bpy.data.objects:
         if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or RIG_KEY not in obj:
             continue
@@ -163,8 +141,6 @@ def _on_save_pre(*_args):
 
 
 def register():
-    import bpy
-    from bpy.app.handlers import persistent
     global _save_handler
     unregister()
     _save_handler = persistent(_on_save_pre)
@@ -172,7 +148,6 @@ def register():
 
 
 def unregister():
-    import bpy
     for h in [h for h in bpy.app.handlers.save_pre
               if getattr(h, "__qualname__", None) == _on_save_pre.__qualname__
               and getattr(h, "__module__", None) == __name__]:

@@ -325,7 +325,7 @@ def key_role(key, key_count, joint_key):
     return "start" if key == 0 else "end" if key == key_count - 1 else "link"
 
 
-def key_label(sweep_label, key, key_count, joint_key=False, joint_name=""):
+def format_key_label(sweep_label, key, key_count, joint_key=False, joint_name=""):
     """E.g. "arm_l · key 3 (joint forearm.L)"."""
     role = key_role(key, key_count, joint_key)
     return f"{sweep_label} · key {key} ({role}{' ' + joint_name if joint_name else ''})"

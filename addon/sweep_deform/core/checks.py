@@ -4,9 +4,9 @@ artist understands: plain Python, no ``bpy``.
 
 The core refuses a NaN, infinite, enormous or degenerate bone matrix itself (naming the bone
 by index); what it never sees are the object matrices, which only map its offsets back to
-the mesh (rig_io.offsets_into), so they are checked here with the same limits. A refused
+the mesh (arrays.offsets_into), so they are checked here with the same limits. A refused
 frame changes nothing: the mesh keeps the last good deformation and the panel says why
-(see runtime.evaluate and docs/robustness.md).
+(see blender/frame.py and docs/robustness.md).
 """
 
 import math

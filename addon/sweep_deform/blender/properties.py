@@ -13,6 +13,8 @@ import bpy
 from bpy.props import (BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty,
                        IntProperty, PointerProperty, StringProperty)
 
+from . import anatomy, corrections, deformer_cache, redraw
+
 STATES = [
     ('UNBOUND', "Not Bound", "No binding: the modifier does nothing"),
     ('BOUND', "Bound", "Bound to the armature; deforms on every pose change"),
@@ -21,9 +23,7 @@ STATES = [
 
 
 def _settings_changed(self, context):
-    # Imported here: runtime imports properties' users, not the other way round.
-    from . import runtime
-    runtime.settings_changed(self.id_data)
+    deformer_cache.settings_changed(self.id_data)
 
 
 def _is_armature(self, obj):
@@ -32,13 +32,11 @@ def _is_armature(self, obj):
 
 def _corrections_changed(self, context):
     # The handlers read the corrections on every evaluation; this only asks for one.
-    from . import runtime
-    runtime.corrections_changed(self.id_data)
+    corrections.corrections_changed(self.id_data)
 
 
 def _edit_changed(self, context):
-    from . import runtime
-    runtime.redraw_views()
+    redraw.redraw_views()
 
 
 class SweepDeformCorrection(bpy.types.PropertyGroup):
@@ -69,10 +67,9 @@ class SweepDeformCorrection(bpy.types.PropertyGroup):
 
 def _anatomy_toggled(self, context):
     # A character bound before the anatomical effects existed gets its joints now.
-    from . import runtime
     if self.use_anatomy and len(self.joints) == 0:
-        runtime.fill_joints(self.id_data)
-    runtime.settings_changed(self.id_data)
+        anatomy.fill_joints(self.id_data)
+    deformer_cache.settings_changed(self.id_data)
 
 
 JOINT_KINDS = [
@@ -144,7 +141,7 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
     # Bind state (written by the bind operator; not for editing).
     state: EnumProperty(name="State", items=STATES, default='UNBOUND')
     message: StringProperty(name="Message", description="Why the character is not deforming")
-    bind_id: StringProperty(description="Identifies one binding (runtime caches key on it)")
+    bind_id: StringProperty(description="Identifies one binding (the deformer cache keys on it)")
     bone_names: StringProperty(description="JSON list: the rig's bones, in the rig's order")
     library_version: StringProperty(description="libsweepdeform version that made the binding")
     vertex_count: IntProperty()

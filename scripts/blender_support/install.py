@@ -1,6 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Installs and enables the extension zip inside a running Blender (used by run.py and
-measure_frame.py): ``blender --command extension install-file -r user_default -e ZIP`` in a
+"""Installs and enables the extension zip inside a running Blender (used by tests/blender/run.py,
+the tests' measure_*.py and scripts/demo_scene.py):
+``blender --command extension install-file -r user_default -e ZIP`` in a
 child Blender, exactly as a user would, then enabling it here."""
 
 import os

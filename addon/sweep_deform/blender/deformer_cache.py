@@ -1,0 +1,182 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The deformer cache: per bound object, what lives only in memory between frames.
+
+An :class:`Entry` holds the native rig, binding and deformer (re-created lazily from the
+object's blobs after load or undo), its buffers (no allocation per frame), the anatomical
+effects, and the key of the state it last wrote: the pose matrices, the mesh→armature linear
+map, the volume settings, the key-ellipse corrections and the anatomical effects. frame.py
+returns at once when that key has not changed, which is what keeps the handlers from feeding
+the depsgraph their own writes back (see handlers.py). Entries are keyed by object name and
+bind id, so a new binding never meets an old entry.
+"""
+
+import numpy as np
+
+from ..core import arrays, fit_report, native
+from . import bound_objects, persistence
+
+_cache = {}
+
+
+class Entry:
+    """The in-memory state of one bound object."""
+
+    def __init__(self, obj):
+        self.bind_id = obj.sweep_deform.bind_id
+        self.armature_name = obj.sweep_deform.armature.name if obj.sweep_deform.armature else ""
+        self.error = ""
+        self.load_error = ""  # why the stored binding could not be used (error may say more)
+        self.deformer = None
+        self.key = None
+        self.settings = None
+        self.labels = []
+        self.frames = 0
+        self.rest_checked = False
+        self.unusable = False
+        self.last_pose = None
+        self.rig = None
+        self.corrections_key = None
+        self.correction_error = ""
+        self.overlay = None
+        self.overlay_key = None
+        self.binding = None
+        self.anatomy = None
+        self.anatomy_key = None
+        self.anatomy_error = ""
+        self.anatomy_stats = None
+        self.triangles = None
+        try:
+            rig, binding, names, rest_pose = persistence.load(obj)
+            self.binding = binding  # kept for the anatomical effects (sd_anatomy_create)
+            self.bone_names = names
+            # The properties rule: the blob's corrections (written at save) are dropped, so the
+            # rest shape below is the uncorrected one the binding was made against.
+            rig.set_corrections([], [], [], [])
+            self.rig = rig
+            self.deformer = native.Deformer(rig, binding)
+            self.labels = fit_report.sweep_labels([rig.keys(s)["bones"] for s in range(rig.sweep_count)], names,
+                                                  obj.get(persistence.REPORT_KEY, ""))
+            self.rest_pose = rest_pose
+            if rest_pose.size != 16 * self.deformer.bone_count:
+                raise ValueError("the stored rest pose does not match the rig")
+            # The core's own rest shape: offsets are measured from it, so the rest pose gives
+            # exactly zero offsets.
+            self.deformer.set_volume_preservation(False, 0.0)
+            self.rest = self.deformer.deform(rest_pose, np.empty((self.deformer.vertex_count, 3), np.float32))
+            self.pose = np.empty(16 * self.deformer.bone_count, np.float32)
+            self.pose_buffer = None
+            self.order = None
+            self.order_names = None
+            self.offsets = np.empty((self.deformer.vertex_count, 3), np.float32)
+            self.scratch = np.empty((self.deformer.vertex_count, 3), np.float32)
+            self._linear = None
+            self._inverse = None
+        except native.NativeLibraryError as e:
+            # Not the file's fault: the panel says what is wrong with the installation.
+            self.error = str(e)
+            self.deformer = None
+        except (native.NativeError, KeyError, ValueError) as e:
+            # The stored binding cannot be used (damaged blob, bones missing, ...).
+            self.error = self.load_error = str(e)
+            self.deformer = None
+            self.unusable = True
+
+    def to_mesh_space(self, linear):
+        """(3,3) float32 matrix taking armature-space row vectors to mesh space, or None
+        for the identity (the usual case: no scale between mesh and armature)."""
+        if self._linear is None or linear != self._linear:
+            self._linear = linear.copy()
+            m = np.array(linear, dtype=np.float64)
+            self._inverse = None if np.array_equal(m, np.eye(3)) else np.linalg.inv(m).T.astype(np.float32)
+        return self._inverse
+
+    def armature_pose(self, arm_eval):
+        """The evaluated pose in the rig's bone order (#B*16 float32), or raises KeyError."""
+        bones = arm_eval.pose.bones
+        n = len(bones)
+        if self.pose_buffer is None or self.pose_buffer.size != 16 * n:
+            self.pose_buffer = np.empty(16 * n, np.float32)
+            self.order_names = None
+        names = [b.name for b in bones]
+        if names != self.order_names:
+            self.order = arrays.pose_order(self.bone_names, names)
+            self.order_names = names
+        bones.foreach_get('matrix', self.pose_buffer)
+        return arrays.gather_pose(self.pose_buffer, self.order, self.pose)
+
+    def rest_pose_matches(self, arm):
+        """Whether the armature's rest pose is still the one the binding was made with."""
+        bones = arm.data.bones
+        rest = np.empty(16 * len(bones), np.float32)
+        bones.foreach_get('matrix_local', rest)
+        try:
+            order = arrays.pose_order(self.bone_names, [b.name for b in bones])
+        except KeyError:
+            return False
+        rest = arrays.gather_pose(rest, order)
+        return rest.size == self.rest_pose.size and np.allclose(rest, self.rest_pose, rtol=0.0, atol=1e-5)
+
+    def refuse(self, obj, message):
+        """A frame that cannot be deformed: nothing is written, the panel shows `message` (the
+        entry's error) and the console gets it once (command-line renders have no panel)."""
+        if message != self.error:
+            print(f"Sweep Deform: '{obj.name}': {message}")
+        self.error = message
+
+    def close(self):
+        """Frees the anatomy now (the deformer goes with the entry's last reference)."""
+        if self.anatomy is not None:
+            self.anatomy.close()
+        self.anatomy = None
+        self.anatomy_key = None
+
+    def volumes(self):
+        """(rest, before, after) per sweep of the last frame, or None before the first."""
+        if self.deformer is None or self.frames == 0:
+            return None
+        return self.deformer.volumes()
+
+
+def _key(obj):
+    return (obj.name, obj.sweep_deform.bind_id)
+
+
+def entry(obj):
+    """The object's cache entry, created on first use."""
+    k = _key(obj)
+    e = _cache.get(k)
+    if e is None:
+        e = _cache[k] = Entry(obj)
+    return e
+
+
+def peek(obj):
+    """The entry if one exists (for the panel; never creates one)."""
+    return _cache.get(_key(obj))
+
+
+def forget(obj):
+    for k in [k for k in _cache if k[0] == obj.name]:
+        _cache.pop(k).close()
+    bound_objects.changed()
+
+
+def forget_armature(arm):
+    """The armature left Edit Mode: its bound characters check its rest pose again."""
+    for e in _cache.values():
+        if e.armature_name == arm.name:
+            e.rest_checked = False
+
+
+def clear():
+    for e in _cache.values():
+        e.close()
+    _cache.clear()
+    bound_objects.clear()
+
+
+def settings_changed(obj):
+    """A volume setting changed: the next evaluation recomputes (the key includes them)."""
+    e = peek(obj)
+    if e is not None:
+        e.key = None

@@ -1,0 +1,123 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""One frame of one character: evaluated pose → core → offsets in the mesh's attribute.
+
+:func:`evaluate` is what the handlers call for every bound mesh of the scene. It checks that
+the character can be deformed (bound, modifier on, not linked, topology and rest pose as
+bound, usable transforms), brings the cache entry's corrections and anatomical effects up to
+date, returns at once when the entry's key says this state is already written, and otherwise
+makes one call down (``sd_deform`` or ``sd_deform_with_anatomy``) and writes one buffer up
+(the offsets, through modifier.write_offsets). A frame that cannot be deformed writes nothing:
+the mesh keeps its last good deformation and the panel says why.
+"""
+
+import numpy as np
+
+from ..core import arrays, checks, native
+from . import anatomy, bind_state, corrections, deformer_cache, modifier, persistence
+
+#: What the user is told after a refused frame, and what happens.
+KEPT = "the mesh keeps its last good deformation until this is fixed"
+
+
+def linked_mesh_message(obj):
+    """Why a linked mesh is not deformed (None if the mesh is local). Blender ignores an
+    add-on's writes into library data, so the offsets cannot go into it."""
+    lib = obj.data.library
+    if lib is None:
+        return None
+    return (f"The mesh '{obj.data.name}' is linked from '{lib.filepath}': Sweep Deform cannot write its "
+            "deformation into linked data, so it shows the shape saved in that file. To animate it here, make "
+            "it local (Object > Relations > Make Local > Selected Objects and Data), or a library override "
+            "of it first")
+
+
+def evaluate(obj, depsgraph, render=False):
+    """Updates the offsets of one bound mesh object for the pose in `depsgraph`.
+    Returns True if it wrote new offsets."""
+    s = obj.sweep_deform
+    if s.state != 'BOUND' or obj.mode == 'EDIT':
+        return False
+    md = modifier.find(obj)
+    if md is None:
+        bind_state.modifier_gone(obj)
+        return False
+    if not modifier.active(md, render):
+        return False
+    arm = s.armature
+    if arm is None or arm.mode == 'EDIT':
+        return False
+    linked = linked_mesh_message(obj)
+    if linked:
+        deformer_cache.entry(obj).refuse(obj, linked)
+        return False
+    if obj.data.users > 1:
+        bind_state.set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single "
+                                   "user and bind again")
+        return False
+    if not persistence.counts_match(obj):
+        bind_state.set_rebind(obj, "The mesh's topology changed after binding: bind again")
+        return False
+    e = deformer_cache.entry(obj)
+    if e.deformer is None:
+        if e.unusable:
+            bind_state.set_rebind(obj, f"The stored binding cannot be used ({e.load_error}): bind again")
+        return False
+    if not e.rest_checked:
+        e.rest_checked = True
+        if not e.rest_pose_matches(arm):
+            bind_state.set_rebind(obj, f"The rest pose of '{arm.name}' changed after binding: bind again")
+            return False
+    arm_eval = arm.evaluated_get(depsgraph)
+    obj_eval = obj.evaluated_get(depsgraph)
+    try:
+        pose = e.armature_pose(arm_eval)
+    except KeyError as err:
+        bind_state.set_rebind(obj, f"{err.args[0]}: bind again")
+        return False
+    problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
+    if problem:
+        e.refuse(obj, f"{problem}: {KEPT}")
+        e.key = None
+        return False
+    # Offsets are vectors: only the linear part of mesh → armature space maps them back.
+    try:
+        linear = (arm_eval.matrix_world.inverted() @ obj_eval.matrix_world).to_3x3()
+        to_mesh = e.to_mesh_space(linear)
+    except (ValueError, np.linalg.LinAlgError):  # flat in float32 though not quite in float64
+        e.refuse(obj, f"The object '{obj.name}' or its armature has a zero scale: {KEPT}")
+        e.key = None
+        return False
+    settings = (bool(s.use_volume_preservation), float(s.volume_strength))
+    # Corrections: in the viewport from the object itself (Blender copies animated and driven
+    # values back to it for the active depsgraph, and a removed item is seen at once); in a
+    # render from the render depsgraph's copy, which holds that frame's animated values.
+    corrections_key = corrections.sync_corrections(e, obj_eval.sweep_deform if render else s)
+    anatomy_key = anatomy.sync_anatomy(e, obj, obj_eval.sweep_deform if render else s)
+    key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
+           corrections_key, anatomy_key)
+    if key == e.key and arrays.OFFSET_ATTRIBUTE in obj.data.attributes:
+        return False  # already written (an attribute removed by someone else is written again)
+    if settings != e.settings:
+        e.deformer.set_volume_preservation(*settings)
+        e.settings = settings
+    try:
+        if e.anatomy is not None:
+            deformed = e.anatomy.deform(e.deformer, pose)
+            e.anatomy_stats = e.anatomy.stats()
+        else:
+            deformed = e.deformer.deform(pose)
+    except native.NativeError as err:
+        e.refuse(obj, f"Unusable pose: {checks.name_bones(str(err), e.bone_names)}: {KEPT}")
+        e.key = key
+        return False
+    offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+    if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
+        e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
+        e.key = key
+        return False
+    modifier.write_offsets(obj.data, offsets)
+    e.last_pose = pose.copy()  # the overlay and key edits follow the pose the mesh shows
+    e.key = key
+    e.error = ""
+    e.frames += 1
+    return True
