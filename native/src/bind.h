@@ -64,10 +64,20 @@ std::vector<PlaneSample> sample_planes(const Sweep& sweep);
 SweepInfluence bind_to_sweep(const Sweep& sweep, int sweep_index,
                              const std::vector<PlaneSample>& planes, const dvec3& v);
 
-/// Binds all vertices. Weight arrays are #V*slots with index -1 for unused slots.
+/// Binds all vertices. Weight arrays are #V*slots with index -1 for unused slots. Then
+/// hand_over_at_sweep_ends, unless the weights come from a binding that had it already
+/// (`weights_handed_over`: the displacement map's points take the mesh's final weights).
 /// @throws InvalidInput (message names the vertex) on bad input.
 Binding bind_vertices(const Rig& rig, int vertex_count, const float* positions, int sweep_slots,
                       const int32_t* sweep_ids, const float* sweep_weights, int bone_slots,
-                      const int32_t* bone_ids, const float* bone_weights);
+                      const int32_t* bone_ids, const float* bone_weights, bool weights_handed_over = false);
+
+/// How far (in the end ellipse's larger half-axis) the hand-over below reaches from a plane.
+constexpr double kHandOverReach = 4.0;
+
+/// Where a sweep ends at a joint (an arm's shoulder and wrist, a leg's hip and ankle, the
+/// neck's base and head), the skin's weight passes smoothly between the sweep and the end
+/// key's bone across the end plane (see bind.cpp); bind_vertices calls it last.
+void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& binding);
 
 }  // namespace sd

@@ -2,7 +2,46 @@
 
 #include "key_pose.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace sd {
+
+namespace {
+
+/// Length of sweep along its normals over one span: the chord times the mean of <N, T> at
+/// both ends (the volume's density per unit area, Sect. 4.4, integrated coarsely).
+double span_thickness(const SweepGeometry& g, int span) {
+    const double tilt = 0.5 * (glm::dot(g.normal(span, 0.0), g.tangent(span, 0.0)) +
+                               glm::dot(g.normal(span, 1.0), g.tangent(span, 1.0)));
+    return g.span_length(span) * std::max(tilt, 0.0);
+}
+
+}  // namespace
+
+void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
+                          std::vector<double>& b) {
+    // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
+    // shorter than at rest where it bends; each key's cross-section grows by what its two
+    // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
+    // (which made a ledge across a bent torso).
+    const int K = s.key_count();
+    std::vector<double> ratio(K - 1);
+    for (int span = 0; span < K - 1; ++span) {
+        const double rest = span_thickness(s.rest_geometry, span);
+        const double pose = span_thickness(posed, span);
+        ratio[span] = rest > 0.0 && pose > 0.0 ? std::clamp(rest / pose, 0.5, 2.0) : 1.0;
+    }
+    for (int k = 0; k < K; ++k) {
+        double r = 0.0;
+        int n = 0;
+        if (k > 0) r += ratio[k - 1], ++n;
+        if (k < K - 1) r += ratio[k], ++n;
+        const double scale = std::sqrt(1.0 + strength * (r / n - 1.0));
+        a[k] *= scale;
+        b[k] *= scale;
+    }
+}
 
 Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(std::move(binding)) {
     binding_.check_structure();
@@ -51,6 +90,8 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
         const SweepGeometry g(centers, rotations);
+        if (s.bends_smoothly && volume_enabled_ && volume_strength_ > 0.0)
+            restore_local_volume(s, g, volume_strength_, a, b);
 
         // Volume control (Sect. 4.4) on the key half-axes.
         const VolumeForm form(s.quadrature, volume_density(s.quadrature, g));

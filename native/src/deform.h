@@ -12,6 +12,13 @@
 
 namespace sd {
 
+/// Thick chains (Sweep::bends_smoothly): scales each key's half-axes by the square root of
+/// how much shorter the posed sweep is than the rest sweep around the key (along its
+/// normals, the mean over its two spans), blended by `strength`. The volume controller then
+/// corrects what is left.
+void restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength,
+                          std::vector<double>& a, std::vector<double>& b);
+
 class Deformer {
 public:
     /// @throws InvalidInput if the binding does not fit the rig.

@@ -541,7 +541,8 @@ Binding DisplacementMap::bind(const Rig& rig, int count, const float* positions,
     std::vector<int32_t> sid, bid;
     std::vector<float> sw, bw;
     transfer_weights(count, positions, &S, sid, sw, &K, bid, bw);
-    Binding b = bind_vertices(rig, count, positions, S, sid.data(), sw.data(), K, bid.data(), bw.data());
+    Binding b = bind_vertices(rig, count, positions, S, sid.data(), sw.data(), K, bid.data(), bw.data(),
+                              /*weights_handed_over=*/true);
     // The new binding fits whatever rig the fitted binding fits (its fingerprint), so it can
     // replace it with the caller's own rig handle.
     b.rig_fingerprint = impl_->source.rig_fingerprint;

@@ -30,17 +30,39 @@ void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>&
     rotations.resize(K);
     for (int k = 0; k < K; ++k) {
         const KeyEllipse& e = sweep.keys[k];
-        centers[k] = dvec3(pose.deform[e.bone] * dvec4(e.center, 1.0));
-        if (!e.is_joint_key()) {
+        const KeyMotion& m = sweep.motions[k];
+        if (!m.blend.empty()) {
+            // Linear blend of the bones' transforms for the center, of their rotations
+            // (on one hemisphere) for the orientation.
+            dvec3 c(0.0);
+            dquat q(0, 0, 0, 0);
+            const dquat& first = pose.rotation[m.blend.front().first];
+            for (const auto& [bone, w] : m.blend) {
+                c += w * dvec3(pose.deform[bone] * dvec4(e.center, 1.0));
+                const dquat& r = pose.rotation[bone];
+                q += (glm::dot(r, first) < 0.0 ? -w : w) * r;
+            }
+            centers[k] = c;
+            rotations[k] = glm::normalize(glm::normalize(q) * e.orientation);
+            continue;
+        }
+        if (m.from_bone == m.to_bone) {
+            centers[k] = dvec3(pose.deform[e.bone] * dvec4(e.center, 1.0));
             rotations[k] = pose.rotation[e.bone] * e.orientation;
             continue;
         }
-        const dquat& parent = pose.rotation[e.joint_parent];
-        const dquat relative = glm::conjugate(parent) * pose.rotation[e.bone];
+        const dquat& from = pose.rotation[m.from_bone];
+        const dquat relative = glm::conjugate(from) * pose.rotation[m.to_bone];
         dquat swing, twist;
-        swing_twist(relative, e.normal(), &swing, &twist);
-        rotations[k] = glm::normalize(parent * fraction_of(swing, e.swing_fraction) *
-                                      fraction_of(twist, e.twist_fraction) * e.orientation);
+        swing_twist(relative, m.axis, &swing, &twist);
+        rotations[k] = glm::normalize(from * fraction_of(swing, m.swing_share) *
+                                      fraction_of(twist, m.twist_share) * e.orientation);
+        if (m.turns_about_pivot) {
+            const dvec3 pivot(pose.deform[e.bone] * dvec4(m.pivot, 1.0));
+            centers[k] = pivot + glm::mat3_cast(rotations[k] * glm::conjugate(e.orientation)) * (e.center - m.pivot);
+        } else {
+            centers[k] = dvec3(pose.deform[e.bone] * dvec4(e.center, 1.0));
+        }
     }
 }
 

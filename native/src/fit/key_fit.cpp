@@ -140,6 +140,14 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
         end.bone = links.back();
     }
     specs.push_back(end);
+    if (ch.kind == ChainKind::Torso && m > 1) {
+        // The spine's bones zigzag along its S-curve (by 15-20 degrees in a MakeHuman rig)
+        // while the body around them is straight; planes that follow each bone cross inside
+        // a body 30 cm deep only a few centimetres from the spine. Every key but the end one
+        // (the neck's start) is cut square to the torso as a whole.
+        const dvec3 axis = unit_or(joint[m] - joint[0], dir[0]);
+        for (size_t k = 0; k + 1 < specs.size(); ++k) specs[k].normal = axis;
+    }
     return specs;
 }
 
@@ -231,19 +239,18 @@ Fitted fit_section(const FitMesh& mesh, const KeySpec& spec, const Ownership& ow
     const dvec2 centroid = polygon_centroid(section);
 
     // Intermediate keys: centered at the centroid. Joint keys: centered at the joint, fitted
-    // there (Sect. 3.2) when the joint is near the section's center; a joint far off it (the
-    // spine near the back) would get a distorted, oversized ellipse, so it takes the
-    // section's own shape instead.
+    // there (Sect. 3.2) when the joint is near the section's center. A joint far off it (the
+    // spine near the back) would get a distorted, oversized ellipse that reaches out behind
+    // the body, and a sweep zigzagging between the back and the middle: such a key is
+    // centered at the centroid too, and turns about its joint in a pose (key_motion.h).
     dvec2 center = spec.fixed_center ? dvec2(0.0) : centroid;
-    Ellipse2 e;
     if (spec.fixed_center &&
         (!polygon_contains(section, dvec2(0.0)) || glm::length(centroid) > 0.15 * r_eq)) {
-        e = fit_ellipse_fixed_center(section, weights, centroid);
+        center = centroid;
         rep->notes.push_back("the joint lies " + fmt(glm::length(centroid) / std::max(r_eq, 1e-300)) +
-                             " radii off the section's center: the ellipse takes the section's shape");
-    } else {
-        e = fit_ellipse_fixed_center(section, weights, center);
+                             " radii off the section's center: the key is centered at the centroid");
     }
+    const Ellipse2 e = fit_ellipse_fixed_center(section, weights, center);
     if (!e.valid || !(std::max(e.a, e.b) < 10.0 * std::max(r_eq, 1e-300))) {
         rep->notes.push_back("no ellipse fits the section");
         return out;
