@@ -187,21 +187,27 @@ void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& b)
     // A shorter hand-over bends the skin sharply where it ends: at 1, 2, 3 and 4 half-axes
     // MakeHuman's shoulder band (arms up 110 degrees, shoulder_test.cpp) creases by 51, 40,
     // 33 and 27 degrees, linear blend skinning by 45.
+    //  Both only near the end ellipse: within 1.5 of its radii from its center, fading out by
+    //  2.5 (the shoulders beside a torso's last plane, at the base of the neck, are the
+    //  torso's, not the neck's).
     struct End {
         int sweep, bone;
         dvec3 center, normal;  // normal pointing out of the sweep
-        double reach;
+        dmat3 axes;            // the end ellipse's frame
+        double a, b, reach;
     };
     std::vector<End> ends;
     for (int si = 0; si < static_cast<int>(rig.sweeps.size()); ++si) {
         const Sweep& s = rig.sweeps[si];
         const SweepGeometry& g = s.rest_geometry;
         const KeyEllipse &first = s.keys.front(), &last = s.keys.back();
+        const int end_span = s.span_count() - 1;
         if (first.is_joint_key())
-            ends.push_back({si, first.bone, g.center(0, 0.0), -g.normal(0, 0.0), std::max(first.a, first.b)});
+            ends.push_back({si, first.bone, g.center(0, 0.0), -g.normal(0, 0.0), g.rotation(0, 0.0), first.a,
+                            first.b, std::max(first.a, first.b)});
         if (last.is_joint_key())
-            ends.push_back({si, last.bone, g.center(s.span_count() - 1, 1.0), g.normal(s.span_count() - 1, 1.0),
-                            std::max(last.a, last.b)});
+            ends.push_back({si, last.bone, g.center(end_span, 1.0), g.normal(end_span, 1.0),
+                            g.rotation(end_span, 1.0), last.a, last.b, std::max(last.a, last.b)});
     }
     if (ends.empty()) return;
     const int V = b.vertex_count();
@@ -219,10 +225,14 @@ void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& b)
         for (const End& e : ends) {
             auto own = std::find_if(row_s.begin(), row_s.end(), [&](const SweepInfluence& i) { return i.sweep == e.sweep; });
             if (own == row_s.end()) continue;
-            const double beyond = glm::dot(p - e.center, e.normal) / std::max(kHandOverReach * e.reach, 1e-12);
+            const dvec3 d = p - e.center;
+            const double radial = std::hypot(glm::dot(d, e.axes[0]) / e.a, glm::dot(d, e.axes[1]) / e.b);
+            const double near = 1.0 - smoothstep01(radial - 1.5);
+            if (!(near > 0.0)) continue;
+            const double beyond = glm::dot(d, e.normal) / std::max(kHandOverReach * e.reach, 1e-12);
             auto bone = std::find_if(row_b.begin(), row_b.end(), [&](const BoneInfluence& i) { return i.bone == e.bone; });
             if (beyond > 0.0) {
-                const float moved = static_cast<float>(smoothstep01(beyond)) * own->weight;
+                const float moved = static_cast<float>(near * smoothstep01(beyond)) * own->weight;
                 if (!(moved > 0.0f)) continue;
                 own->weight -= moved;
                 if (bone != row_b.end())
@@ -230,7 +240,7 @@ void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& b)
                 else
                     row_b.push_back({e.bone, moved});
             } else if (bone != row_b.end()) {
-                const float moved = static_cast<float>(smoothstep01(-beyond)) * bone->weight;
+                const float moved = static_cast<float>(near * smoothstep01(-beyond)) * bone->weight;
                 bone->weight -= moved;
                 own->weight += moved;
             }
