@@ -9,7 +9,7 @@
 // the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
 #include "anatomy/anatomy.h"
 #include "bench_case.h"
-#include "deform.h"
+#include "deform/deform.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>

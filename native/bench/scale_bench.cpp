@@ -4,7 +4,7 @@
 // Case: MakeHuman male (../shared/data/humans/mh_male_game_engine.glb) refined three
 // Catmull–Clark levels with OpenSubdiv (13,380 -> 1,283,906 vertices), posed by the dance clip.
 #include "bench_case.h"
-#include "deform.h"
+#include "deform/deform.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>

@@ -8,8 +8,8 @@
 // Poses: the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
 // Rig: the automatic fitting (native/src/fit), as the add-on does it.
 #include "bench_case.h"
-#include "deform.h"
-#include "linear_blend_skinning.h"
+#include "deform/deform.h"
+#include "deform/linear_blend_skinning.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>

@@ -7,8 +7,8 @@
 // volume preservation. Run `sweepdeform --help` for the options; docs/pipeline.md explains.
 #include "sweepdeform/sweepdeform.h"
 
-#include "displacement_map.h"
-#include "serialize.h"
+#include "dmap/displacement_map.h"
+#include "bind/serialize.h"
 
 #include <sweepdeform_io/bvh.h>
 #include <sweepdeform_io/character.h>

@@ -5,14 +5,14 @@
 // leaves none, the volume stays); then the characters of ../shared/data, fitted
 // automatically, at elbow flexion 90/120/150 and knee flexion 90/135; and the C ABI.
 #include "anatomy/anatomy.h"
-#include "anatomy/bvh.h"
-#include "anatomy/exact_predicates.h"
-#include "anatomy/mesh_topology.h"
-#include "anatomy/mesh_volume.h"
-#include "anatomy/self_intersection.h"
-#include "anatomy/triangle_intersection.h"
+#include "geometry/bvh.h"
+#include "geometry/exact_predicates.h"
+#include "geometry/mesh_topology.h"
+#include "geometry/mesh_volume.h"
+#include "geometry/self_intersection.h"
+#include "geometry/triangle_intersection.h"
 #include "fit/fit_rig.h"
-#include "linear_blend_skinning.h"
+#include "deform/linear_blend_skinning.h"
 #include "test_arm.h"
 
 #include "sweepdeform/sweepdeform.h"

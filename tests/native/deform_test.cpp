@@ -1,7 +1,7 @@
 // Sect. 3.3–3.5, 4.1, 4.4 on the synthetic arm: rest round trip, bends with volume control,
 // twist without the candy-wrapper, sweep blending, thread-count independence.
-#include "key_pose.h"
-#include "linear_blend_skinning.h"
+#include "rig/key_pose.h"
+#include "deform/linear_blend_skinning.h"
 #include "point_metrics.h"
 #include "test_arm.h"
 

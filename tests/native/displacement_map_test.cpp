@@ -1,14 +1,14 @@
-// The continuous displacement map (Sect. 3.4; native/src/displacement_map.h): analytic cases
+// The continuous displacement map (Sect. 3.4; native/src/dmap/displacement_map.h): analytic cases
 // first (OpenSubdiv's limit surface of the control grid is the uniform bicubic B-spline,
 // periodic in θ; a known smooth d(θ, t) is recovered), then the MakeHuman character of
 // ../shared/data: re-binding its Catmull-Clark refinement through the map against a direct
 // bind, a point cloud sampled on it against the barycentric interpolation of the deformed
 // mesh, and the C ABI of libsweepdeform_dmap.
-#include "bind.h"
-#include "deform.h"
-#include "displacement_map.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "dmap/displacement_map.h"
 #include "fit/fit_rig.h"
-#include "serialize.h"
+#include "bind/serialize.h"
 #include "sweepdeform/sweepdeform.h"
 
 #include <sweepdeform_io/animation.h>

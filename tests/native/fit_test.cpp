@@ -5,12 +5,12 @@
 // fitting + binding the refined 80K-vertex MakeHuman.
 #include "fit_support.h"
 #include "point_metrics.h"
-#include "bind.h"
-#include "deform.h"
-#include "fit/cross_section.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "geometry/cross_section.h"
 #include "fit/ellipse_fit.h"
 #include "fit/fit_rig.h"
-#include "linear_blend_skinning.h"
+#include "deform/linear_blend_skinning.h"
 #include "sweepdeform/sweepdeform.h"
 
 #include <sweepdeform_io/animation.h>

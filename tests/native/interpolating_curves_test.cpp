@@ -1,6 +1,6 @@
 // Sect. 3.2: the trajectory interpolates the key centers with chord-length knots; a(t), b(t)
 // interpolate the key half-axes.
-#include "interpolating_curves.h"
+#include "math/interpolating_curves.h"
 
 #include <gtest/gtest.h>
 

@@ -2,8 +2,8 @@
 // interpolation of corrections over it (rest pinned, monotone, clamped), the deformation
 // changing only near the edited key and the edit's angle, volume control keeping a scaling
 // edit, rest corrections, blobs of format version 2 (and reading version 1), and the C ABI.
-#include "key_pose.h"
-#include "serialize.h"
+#include "rig/key_pose.h"
+#include "bind/serialize.h"
 #include "sweepdeform/sweepdeform.h"
 #include "test_arm.h"
 

@@ -1,8 +1,8 @@
 // The core on real characters from ../shared/data, with key ellipses simply sitting on the
 // bones (automatic fitting is tested in fit_test.cpp).
 #include "bone_rig.h"
-#include "deform.h"
-#include "linear_blend_skinning.h"
+#include "deform/deform.h"
+#include "deform/linear_blend_skinning.h"
 #include "point_metrics.h"
 
 #include <sweepdeform_io/animation.h>

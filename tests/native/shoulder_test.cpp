@@ -4,11 +4,11 @@
 // puts it, and the trunk's skin stays smooth (no fold where arm-bound skin swings up while
 // the skin above stays with the torso).
 #include "fit_support.h"
-#include "bind.h"
-#include "deform.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
 #include "fit/fit_rig.h"
-#include "linear_blend_skinning.h"
-#include "measure.h"
+#include "deform/linear_blend_skinning.h"
+#include "measure/measure.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>

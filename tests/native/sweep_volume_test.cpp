@@ -1,6 +1,6 @@
 // Sect. 3.1: V = ∫ π a(t) b(t) <N(t), C'(t)> dt, against closed forms.
 #include "test_arm.h"
-#include "volume.h"
+#include "rig/volume.h"
 
 #include <gtest/gtest.h>
 

@@ -3,9 +3,9 @@
 // elliptic cylinder mesh of rings around it.
 #pragma once
 
-#include "bind.h"
-#include "deform.h"
-#include "rig.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "rig/rig.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 

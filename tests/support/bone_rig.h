@@ -4,8 +4,8 @@
 // from the character's own skin weights. The real, robust fitting lives in native/src/fit.
 #pragma once
 
-#include "bind.h"
-#include "rig.h"
+#include "bind/bind.h"
+#include "rig/rig.h"
 
 #include <sweepdeform_io/character.h>
 

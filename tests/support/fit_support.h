@@ -2,7 +2,7 @@
 // and fit + bind as the add-on does it; shared by the native tests and the benchmarks.
 #pragma once
 
-#include "bind.h"
+#include "bind/bind.h"
 #include "fit/fit_rig.h"
 
 #include <sweepdeform_io/character.h>

@@ -1,6 +1,6 @@
 #include "anatomy/anatomy.h"
 
-#include "key_pose.h"
+#include "rig/key_pose.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 

@@ -20,15 +20,15 @@
 #include "anatomy/bone_protrusion.h"
 #include "anatomy/falloff.h"
 #include "anatomy/joint.h"
-#include "anatomy/mesh_topology.h"
-#include "anatomy/mesh_volume.h"
+#include "geometry/mesh_topology.h"
+#include "geometry/mesh_volume.h"
 #include "anatomy/muscle_bulge.h"
-#include "anatomy/self_intersection.h"
+#include "geometry/self_intersection.h"
 #include "anatomy/skin_folding.h"
 #include "anatomy/skin_parts.h"
-#include "bind.h"
-#include "deform.h"
-#include "rig.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "rig/rig.h"
 
 #include <memory>
 #include <vector>

@@ -19,10 +19,10 @@
 // grows smoothly with flexion.
 #pragma once
 
-#include "anatomy/bvh.h"
+#include "geometry/bvh.h"
 #include "anatomy/falloff.h"
-#include "anatomy/mesh_topology.h"
-#include "math_types.h"
+#include "geometry/mesh_topology.h"
+#include "math/math_types.h"
 
 #include <string>
 #include <vector>

@@ -8,8 +8,8 @@
 // with zero slope at the source and 0 with zero slope at the radius.
 #pragma once
 
-#include "anatomy/mesh_topology.h"
-#include "math_types.h"
+#include "geometry/mesh_topology.h"
+#include "math/math_types.h"
 
 #include <cstdint>
 #include <vector>

@@ -4,9 +4,9 @@
 // and what a pose does to it (flexion angle, the transforms bone proxies ride on).
 #pragma once
 
-#include "math_types.h"
-#include "rig.h"
-#include "skeleton.h"
+#include "math/math_types.h"
+#include "rig/rig.h"
+#include "rig/skeleton.h"
 
 namespace sd::anatomy {
 

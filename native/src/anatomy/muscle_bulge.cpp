@@ -1,7 +1,7 @@
 #include "anatomy/muscle_bulge.h"
 
-#include "key_pose.h"
-#include "sweep.h"
+#include "rig/key_pose.h"
+#include "rig/sweep.h"
 
 #include <algorithm>
 #include <cmath>

@@ -15,8 +15,8 @@
 
 #include "anatomy/falloff.h"
 #include "anatomy/skin_parts.h"
-#include "rig.h"
-#include "skeleton.h"
+#include "rig/rig.h"
+#include "rig/skeleton.h"
 
 #include <string>
 #include <vector>

@@ -1,5 +1,5 @@
 #include "anatomy/skin_folding.h"
-#include "anatomy/disjoint_sets.h"
+#include "geometry/disjoint_sets.h"
 
 #include <Eigen/Eigenvalues>
 

@@ -27,8 +27,8 @@
 #pragma once
 
 #include "anatomy/falloff.h"
-#include "anatomy/mesh_topology.h"
-#include "anatomy/self_intersection.h"
+#include "geometry/mesh_topology.h"
+#include "geometry/self_intersection.h"
 #include "anatomy/skin_parts.h"
 
 #include <cstdint>

@@ -5,8 +5,8 @@
 // chest); bulge and volume use the sweep parameters.
 #pragma once
 
-#include "bind.h"
-#include "rig.h"
+#include "bind/bind.h"
+#include "rig/rig.h"
 
 #include <cstdint>
 #include <vector>

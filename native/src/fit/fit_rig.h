@@ -4,9 +4,9 @@
 
 #include "fit/chains.h"
 #include "fit/key_fit.h"
-#include "fit/mesh.h"
+#include "geometry/mesh.h"
 #include "fit/regions.h"
-#include "rig.h"
+#include "rig/rig.h"
 
 #include <cstdint>
 #include <string>

@@ -1,8 +1,8 @@
 #include "fit/key_fit.h"
 
-#include "fit/cross_section.h"
+#include "geometry/cross_section.h"
 #include "fit/ellipse_fit.h"
-#include "rig.h"
+#include "rig/rig.h"
 
 #include <tbb/parallel_for.h>
 

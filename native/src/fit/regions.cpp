@@ -1,7 +1,7 @@
 #include "fit/regions.h"
 
-#include "bind.h"
-#include "skeleton.h"
+#include "bind/bind.h"
+#include "rig/skeleton.h"
 
 #include <tbb/parallel_for.h>
 
