@@ -1,5 +1,6 @@
-// Shared by the C ABI's translation units: status mapping, the thread-local message and the
-// exception barrier. Internal; not installed.
+// Shared by the C ABI's translation units: the opaque handles, status mapping, the thread-local
+// message, the exception barrier, and the two helpers several ABI areas use (blobs into the
+// caller's buffer, a sweep by index). Internal; not installed.
 #pragma once
 
 #include "sweepdeform/sweepdeform.h"
@@ -9,10 +10,12 @@
 #include "math/math_types.h"
 #include "rig/rig.h"
 
+#include <algorithm>
+#include <cstdint>
 #include <memory>
-
 #include <new>
 #include <string>
+#include <vector>
 
 // The opaque handles of the header.
 struct sd_rig {
@@ -65,3 +68,30 @@ sd_status guarded(const char* function, F&& f, sd_status invalid_input = SD_ERR_
     do { \
         if (!(cond)) throw sd::InvalidInput(message); \
     } while (0)
+
+namespace sd::abi {
+
+/// Size query, then fill: *out_size = the blob's size; copies it into buffer unless buffer is
+/// NULL; a buffer smaller than the blob is an error. Inside guarded().
+inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, int64_t capacity,
+                            int64_t* out_size) {
+    SD_REQUIRE(out_size, "out_size is NULL");
+    *out_size = static_cast<int64_t>(blob.size());
+    if (!buffer) return SD_OK;
+    if (capacity < static_cast<int64_t>(blob.size()))
+        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) +
+                                                 " is smaller than the blob (" +
+                                                 std::to_string(blob.size()) + " bytes)");
+    std::copy(blob.begin(), blob.end(), buffer);
+    return SD_OK;
+}
+
+/// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
+inline const sd::Sweep& sweep_of(const sd_rig* rig, int32_t sweep) {
+    SD_REQUIRE(rig, "rig is NULL");
+    SD_REQUIRE(sweep >= 0 && sweep < static_cast<int32_t>(rig->rig.sweeps.size()),
+               "sweep index " + std::to_string(sweep) + " is out of range");
+    return rig->rig.sweeps[sweep];
+}
+
+}  // namespace sd::abi
