@@ -7,9 +7,10 @@
 // using spline interpolation". Every key has a joint (KeyJoint, rig.h) whose angle — the
 // angle between the directions of its two links, 0 for a straight limb — selects the
 // correction: the key's corrections are samples over that angle, interpolated by a monotone
-// cubic (below), and the result moves, turns and scales the placed key in its own frame.
+// cubic (key_correction.h), and the result moves, turns and scales the placed key in its own frame.
 #pragma once
 
+#include "rig/key_correction.h"
 #include "rig/rig.h"
 
 #include <vector>
@@ -23,27 +24,9 @@ void swing_twist(const dquat& r, const dvec3& axis, dquat* swing, dquat* twist);
 void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>& centers,
                std::vector<dquat>& rotations);
 
-/// Angle in [0, pi] between two vectors (atan2 of |u x v| and u . v: accurate near 0 and pi).
-double angle_between(const dvec3& u, const dvec3& v);
-
 /// The angle (radians, [0, pi]) between the directions of the joint's two links in `pose`:
 /// rot(M_parent) parent_axis against rot(M_child) child_axis. 0 when the joint has no parent.
 double joint_angle(const KeyJoint& joint, const SkeletonPose& pose);
-
-/// The key's correction at joint angle `angle`: the non-muted corrections are samples over
-/// the angle (samples closer than kCorrectionAngleTolerance are averaged); unless one of them
-/// lies at the rest angle, the rest angle is one more sample with no correction, so the rest
-/// pose is untouched. Through the samples runs a monotone cubic Hermite spline per component
-/// (centre offset, rotation vector, log of the scales): Fritsch–Carlson slopes inside, zero
-/// slope at the first and last sample, constant beyond them. So it never overshoots the
-/// samples, is C1, and an angle within 1e-5 rad of a sample gives that sample exactly.
-KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, double rest_angle,
-                                 double angle);
-
-/// Applies a correction to one placed key: center + R dc, R exp(dr), a sa, b sb
-/// (R = the placed orientation). Identity corrections change nothing, bit for bit.
-void apply_correction(const KeyCorrectionValue& c, dvec3& center, dquat& rotation, double& a,
-                      double& b);
 
 /// Sect. 4.2 after Sect. 4.1: corrects the posed keys of pose_keys() in place.
 /// @param a, b  #K, in: the key half-axes to start from, out: scaled by the corrections
@@ -51,8 +34,5 @@ void apply_correction(const KeyCorrectionValue& c, dvec3& center, dquat& rotatio
 void correct_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>& centers,
                   std::vector<dquat>& rotations, std::vector<double>& a, std::vector<double>& b,
                   std::vector<double>* angles = nullptr);
-
-/// Rotation vector (axis * angle) → unit quaternion.
-dquat rotation_from_vector(const dvec3& v);
 
 }  // namespace sd

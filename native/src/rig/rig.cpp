@@ -1,6 +1,6 @@
 #include "rig/rig.h"
 
-#include "rig/key_pose.h"
+#include "rig/key_correction.h"
 
 #include <algorithm>
 #include <cmath>

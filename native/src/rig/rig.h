@@ -2,6 +2,7 @@
 // artist's pose-space corrections of the key ellipses (Sect. 4.2).
 #pragma once
 
+#include "rig/key_correction.h"
 #include "rig/key_ellipse.h"
 #include "rig/skeleton.h"
 #include "rig/volume.h"
@@ -10,9 +11,6 @@
 
 namespace sd {
 
-/// Corrections closer than this (radians) belong to the same angle: setting one there
-/// replaces the other, and the interpolation averages them.
-constexpr double kCorrectionAngleTolerance = 1e-3;
 /// At most this many corrections per key ellipse.
 constexpr int kMaxCorrectionsPerKey = 64;
 
