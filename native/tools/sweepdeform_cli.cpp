@@ -510,8 +510,12 @@ int run(const Options& o) {
           "sd_fit_result_weights");
     const double fit_ms = ms_since(t0);
     if (!o.report.empty()) {
+        int64_t size = 0;
+        check(sd_fit_result_report(h.fit, nullptr, 0, &size), "sd_fit_result_report");
+        std::vector<char> text(static_cast<size_t>(size));
+        check(sd_fit_result_report(h.fit, text.data(), size, &size), "sd_fit_result_report");
         std::ofstream rep(o.report);
-        rep << sd_fit_result_report(h.fit);
+        rep << text.data();
         if (!rep) throw Failure(kOutput, "cannot write the report '" + o.report + "'");
     }
     t0 = std::chrono::steady_clock::now();

@@ -10,6 +10,7 @@
 #include "fit/fit_rig.h"
 #include "bind/serialize.h"
 #include "sweepdeform/sweepdeform.h"
+#include "sweepdeform/sweepdeform_dmap.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -350,16 +351,21 @@ TEST(DisplacementMapAbi, FitEvaluateBindThroughBlobs) {
     sd_rig* crig = nullptr;
     ASSERT_EQ(sd_rig_deserialize(rb.data(), static_cast<int64_t>(rb.size()), &crig), SD_OK);
     for (float snap : {SD_DMAP_SNAP_EXACT, SD_DMAP_SNAP_DEFAULT, SD_DMAP_SNAP_SURFACE}) {
-        sd_dmap_blob* blob = nullptr;
+        sd_dmap_binding* dmap_binding = nullptr;
         int32_t snapped = -1;
-        ASSERT_EQ(sd_dmap_bind(map, N, fine.positions.data(), snap, &snapped, &blob), SD_OK) << sd_dmap_last_error();
+        ASSERT_EQ(sd_dmap_bind(map, N, fine.positions.data(), snap, &snapped, &dmap_binding), SD_OK) << sd_dmap_last_error();
         EXPECT_EQ(snapped, snap == SD_DMAP_SNAP_EXACT ? 0 : N);  // the tube is single-valued everywhere
+        // The blob: size query, then fill into the caller's buffer.
         int64_t size = 0;
-        const uint8_t* bytes = sd_dmap_blob_data(blob, &size);
-        ASSERT_NE(bytes, nullptr);
+        ASSERT_EQ(sd_dmap_binding_serialize(dmap_binding, nullptr, 0, &size), SD_OK) << sd_dmap_last_error();
+        ASSERT_GT(size, 0);
+        std::vector<uint8_t> bytes(static_cast<size_t>(size));
+        EXPECT_EQ(sd_dmap_binding_serialize(dmap_binding, bytes.data(), size - 1, &size), SD_ERR_INVALID_ARGUMENT);
+        ASSERT_EQ(sd_dmap_binding_serialize(dmap_binding, bytes.data(), size, &size), SD_OK) << sd_dmap_last_error();
+        ASSERT_EQ(size, static_cast<int64_t>(bytes.size()));
         sd_binding* cb = nullptr;
-        ASSERT_EQ(sd_binding_deserialize(bytes, size, &cb), SD_OK) << sd_last_error();
-        sd_dmap_blob_destroy(blob);
+        ASSERT_EQ(sd_binding_deserialize(bytes.data(), size, &cb), SD_OK) << sd_last_error();
+        sd_dmap_binding_destroy(dmap_binding);
         sd_deformer* def = nullptr;
         ASSERT_EQ(sd_deformer_create(crig, cb, &def), SD_OK) << sd_last_error();
         std::vector<float> out(fine.positions.size());
@@ -369,16 +375,16 @@ TEST(DisplacementMapAbi, FitEvaluateBindThroughBlobs) {
         sd_deformer_destroy(def);
         sd_binding_destroy(cb);
     }
-    sd_dmap_blob* blob = nullptr;
-    EXPECT_EQ(sd_dmap_bind(map, N, fine.positions.data(), -1.0f, nullptr, &blob), SD_ERR_INVALID_ARGUMENT);
-    EXPECT_EQ(sd_dmap_bind(map, 0, fine.positions.data(), 0.0f, nullptr, &blob), SD_ERR_INVALID_ARGUMENT);
-    EXPECT_EQ(sd_dmap_bind(nullptr, N, fine.positions.data(), 0.0f, nullptr, &blob), SD_ERR_INVALID_ARGUMENT);
-    EXPECT_EQ(blob, nullptr);
+    sd_dmap_binding* dmap_binding = nullptr;
+    EXPECT_EQ(sd_dmap_bind(map, N, fine.positions.data(), -1.0f, nullptr, &dmap_binding), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(sd_dmap_bind(map, 0, fine.positions.data(), 0.0f, nullptr, &dmap_binding), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(sd_dmap_bind(nullptr, N, fine.positions.data(), 0.0f, nullptr, &dmap_binding), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(dmap_binding, nullptr);
     int64_t size = 7;
-    EXPECT_EQ(sd_dmap_blob_data(nullptr, &size), nullptr);
-    EXPECT_EQ(size, 0);
+    EXPECT_EQ(sd_dmap_binding_serialize(nullptr, nullptr, 0, &size), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(size, 7);
     EXPECT_EQ(sd_dmap_sweep_count(nullptr), -1);
-    sd_dmap_blob_destroy(nullptr);
+    sd_dmap_binding_destroy(nullptr);
     sd_dmap_destroy(nullptr);
     sd_rig_destroy(crig);
     sd_dmap_destroy(map);

@@ -476,10 +476,22 @@ TEST(FitAbi, ValidatesAndRoundTrips) {
     std::vector<float> out(m.positions.size());
     ASSERT_EQ(sd_deform(d, 2, rest.data(), V, out.data()), SD_OK);
     EXPECT_LE(max_distance(out, m.positions), 1e-6 * diagonal(m.positions));
-    const std::string report = sd_fit_result_report(res);
+    // The report: size query, then fill into the caller's buffer.
+    int64_t size = 0;
+    ASSERT_EQ(sd_fit_result_report(res, nullptr, 0, &size), SD_OK);
+    ASSERT_GT(size, 1);
+    std::vector<char> text(static_cast<size_t>(size), 'x');
+    ASSERT_EQ(sd_fit_result_report(res, text.data(), size, &size), SD_OK);
+    EXPECT_EQ(text.back(), '\0');
+    const std::string report(text.data());
+    EXPECT_EQ(report.size() + 1, static_cast<size_t>(size));
     EXPECT_EQ(report.front(), '{');
     EXPECT_NE(report.find("\"bone_names\":[\"upper\",\"\"]"), std::string::npos) << report;
-    EXPECT_STREQ(sd_fit_result_report(nullptr), "");
+    std::vector<char> small(static_cast<size_t>(size - 1), 'x');
+    EXPECT_EQ(sd_fit_result_report(res, small.data(), size - 1, &size), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(small.front(), 'x') << "a buffer too small is not written";
+    EXPECT_EQ(sd_fit_result_report(nullptr, nullptr, 0, &size), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(sd_fit_result_report(res, nullptr, 0, nullptr), SD_ERR_INVALID_ARGUMENT);
     sd_deformer_destroy(d);
     sd_binding_destroy(binding);
     sd_rig_destroy(rig);

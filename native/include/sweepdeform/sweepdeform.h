@@ -3,10 +3,25 @@
  *
  * Sweep-based human deformation (Hyun et al. 2005) behind a small C ABI.
  *
+ * The continuous displacement map is another library with its own header,
+ * sweepdeform_dmap.h (libsweepdeform_dmap.so).
+ *
  * Conventions
  *  - Every function returns an sd_status; on failure the thread-local message from
- *    sd_last_error() says what was wrong, and no output or handle was changed.
- *  - The caller owns every array it passes. Arrays are tightly packed, row-major per
+ *    sd_last_error() says what was wrong, and no output or handle was changed. The
+ *    exceptions, which cannot fail or report a failure in their value:
+ *      sd_abi_version, sd_library_version, sd_last_error  (the library block: nothing to
+ *        check; they return the value itself)
+ *      sd_*_destroy  (nothing to report: NULL is accepted and ignored)
+ *      sd_rig_bone_count, sd_rig_sweep_count, sd_rig_key_count, sd_binding_vertex_count,
+ *      sd_anatomy_joint_count, sd_rig_key_correction_count, sd_rig_correction_count
+ *        (a count, or -1 for a NULL handle or an index out of range; sd_rig_key_count,
+ *        sd_rig_key_correction_count and sd_anatomy_joint_count then also set
+ *        sd_last_error's message)
+ *  - The caller owns every array and buffer it passes; the library never hands out memory
+ *    of its own except through handles, which the caller destroys. Outputs of a size the
+ *    caller cannot know in advance (blobs, the fitting's report) are a size query then a
+ *    fill: call with buffer NULL to get *out_size, then with a buffer of that capacity. Arrays are tightly packed, row-major per
  *    element: positions are #V*3 floats (x,y,z), matrices are 16 floats in COLUMN-major
  *    order (the layout of GLM, OpenGL and Blender's Matrix transposed rows), quaternions
  *    are 4 floats (w, x, y, z).
@@ -34,8 +49,9 @@ extern "C" {
 #define SD_API __attribute__((visibility("default")))
 #endif
 
-/* Bumped whenever a signature or a struct layout of this header changes. */
-#define SD_ABI_VERSION 1
+/* Bumped whenever a signature or a struct layout of this header changes (2: the fitting's
+ * report is copied into the caller's buffer; joint kinds and parameters renamed). */
+#define SD_ABI_VERSION 2
 
 typedef enum sd_status {
     SD_OK = 0,
@@ -257,85 +273,17 @@ SD_API sd_status sd_fit_result_weights(const sd_fit_result* result, int32_t vert
                                        float* sweep_weights, int32_t bone_slots,
                                        int32_t* bone_ids, float* bone_weights);
 /*
- * The fitting report, JSON text (UTF-8), valid until the result is destroyed ("" for NULL):
+ * The fitting report, JSON text (UTF-8), copied into the caller's buffer: *out_size is its
+ * size in bytes including the terminating NUL; with buffer NULL only *out_size is written,
+ * else capacity must be at least that size. The report holds
  * mesh statistics (components, border edges, non-manifold faces), the body axes, per chain
  * its kind, bones, sweep index (-1 if it failed, with "error"), and per key ellipse its role,
  * bone, center, normal, half-axes, the area of the cross-section it was fitted to and of the
  * ellipse, fit RMS, the share of the section that belonged to the chain, fallbacks and notes;
  * the regions' counts (vertices bound, blended, rigid) and warnings.
  */
-SD_API const char* sd_fit_result_report(const sd_fit_result* result);
-
-/* ---- continuous displacement map (Sect. 3.4) ---- */
-
-/*
- * The continuous displacement map d(θ, t) of a bound mesh: per sweep, the displacement of
- * the skin from the moving ellipse in the sweep's local frame (x, y along the ellipse's
- * axes, z along the sweep; the out-of-plane part is kept) as a smooth bicubic B-spline over
- * a regular (θ, t) control grid, periodic in θ and open in t, evaluated with OpenSubdiv. With
- * it, geometry that was never fitted (a subdivided or retopologised mesh of the same body, a
- * point cloud) is bound without re-fitting: weights from the closest point of the fitted
- * mesh, (θ, t) by the binding's plane search, local coordinates from the map.
- *
- * These functions live in the SEPARATE library libsweepdeform_dmap.so (it links OpenSubdiv;
- * libsweepdeform.so does not), so a host loads OpenSubdiv only when it uses the map. They
- * exchange rigs and bindings as the blobs of sd_rig_serialize / sd_binding_serialize (the
- * two libraries share no handles), and report failures through sd_dmap_last_error(), not
- * sd_last_error(). t is the sweep's global parameter in [0, 1], uniform per span, as in
- * sd_rig_evaluate_sweep; θ in radians.
- */
-typedef struct sd_displacement_map sd_displacement_map;
-
-/* sd_dmap_bind's snap: no point takes the map's surface / every point does / the default. */
-#define SD_DMAP_SNAP_EXACT 0.0f
-#define SD_DMAP_SNAP_SURFACE 1e30f
-#define SD_DMAP_SNAP_DEFAULT 0.1f
-
-/* Message of the last failed sd_dmap_* call on this thread ("" if none). */
-SD_API const char* sd_dmap_last_error(void);
-
-/*
- * Fits the map of a bound mesh.
- *  rig_blob, binding_blob  blobs of the rig and of a binding made with it (sd_bind)
- *  triangle_count, triangles  the bound mesh's triangles (#T*3 vertex indices)
- *  theta_cells       control points around each sweep, 4..256 (0 = default 24)
- *  t_cells_per_span  control intervals along each span, 1..64 (0 = default 3)
- *  smoothing         bending weight relative to the data, >= 0 (negative = default 1e-3)
- */
-SD_API sd_status sd_dmap_fit(const uint8_t* rig_blob, int64_t rig_size, const uint8_t* binding_blob,
-                             int64_t binding_size, int32_t triangle_count, const int32_t* triangles,
-                             int32_t theta_cells, int32_t t_cells_per_span, float smoothing,
-                             sd_displacement_map** out_map);
-SD_API void sd_dmap_destroy(sd_displacement_map* map);
-SD_API int32_t sd_dmap_sweep_count(const sd_displacement_map* map);
-/* Fit residuals per sweep at its own samples (#S each, any may be NULL): sample counts,
- * weighted RMS and max of |d_V - d(θ_V, t_V)| in the rig's units. */
-SD_API sd_status sd_dmap_fit_errors(const sd_displacement_map* map, int32_t sweep_count,
-                                    int32_t* samples, float* rms, float* max);
-/* d(θ_i, t_i) of one sweep for `count` parameter pairs: displacements #count*3 (local frame)
- * and/or rest_points #count*3 (armature space, S(θ,t) + R(t) d(θ,t)); either may be NULL. */
-SD_API sd_status sd_dmap_evaluate(const sd_displacement_map* map, int32_t sweep, int32_t count,
-                                  const float* theta, const float* t, float* displacements,
-                                  float* rest_points);
-/*
- * Binds `point_count` rest points (#N*3, armature space; no connectivity needed) through the
- * map (which keeps the rig it was fitted with): weights from the closest point of the fitted
- * mesh, (θ, t) per sweep by the plane search of sd_bind. Each sweep influence then takes the
- * map's smooth surface point at its (θ, t) if that lies within snap x min(a(t), b(t)) of the
- * point's own offset, else keeps its own (folds and caps where d is not single-valued).
- * SD_DMAP_SNAP_EXACT keeps every point where it is; SD_DMAP_SNAP_SURFACE moves every point
- * onto the map's surface. out_snapped (may be NULL) receives how many influences took the
- * map's point. The binding comes back as a blob for sd_binding_deserialize() of
- * libsweepdeform; it is made for the same rig as the binding the map was fitted from (it
- * carries that binding's rig fingerprint), so it deforms with that rig's handle.
- */
-typedef struct sd_dmap_blob sd_dmap_blob;
-SD_API sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_count,
-                              const float* positions, float snap, int32_t* out_snapped,
-                              sd_dmap_blob** out_binding_blob);
-/* The blob's bytes (valid until it is destroyed) and size; NULL and 0 for a NULL blob. */
-SD_API const uint8_t* sd_dmap_blob_data(const sd_dmap_blob* blob, int64_t* out_size);
-SD_API void sd_dmap_blob_destroy(sd_dmap_blob* blob);
+SD_API sd_status sd_fit_result_report(const sd_fit_result* result, char* buffer, int64_t capacity,
+                                      int64_t* out_size);
 
 /* ---- anatomical effects (Sect. 4.3, 4.4) ---- */
 
@@ -354,9 +302,9 @@ SD_API void sd_dmap_blob_destroy(sd_dmap_blob* blob);
 typedef struct sd_anatomy sd_anatomy;
 
 typedef enum sd_joint_kind {
-    SD_JOINT_GENERIC = 0, /* folding only: shoulder (armpit), hip (groin), neck */
-    SD_JOINT_ELBOW = 1,   /* also an olecranon proxy on the forearm and a biceps */
-    SD_JOINT_KNEE = 2     /* also a patella proxy and a calf muscle on the shin */
+    SD_JOINT_KIND_GENERIC = 0, /* folding only: shoulder (armpit), hip (groin), neck */
+    SD_JOINT_KIND_ELBOW = 1,   /* also an olecranon proxy on the forearm and a biceps */
+    SD_JOINT_KIND_KNEE = 2     /* also a patella proxy and a calf muscle on the shin */
 } sd_joint_kind;
 
 /* Per-joint effect switches, a bit mask (all on when a joint is added). */
@@ -365,13 +313,13 @@ typedef enum sd_joint_kind {
 #define SD_EFFECT_BULGE 4
 
 typedef enum sd_joint_parameter {
-    SD_JOINT_PROTRUSION_STRENGTH = 0, /* 0..2 (1): scales the push out of a bone proxy */
-    SD_JOINT_PROTRUSION_FALLOFF = 1,  /* >= 0 (0 = automatic): radius of its smooth falloff, units */
-    SD_JOINT_BULGE_STRENGTH = 2,      /* 0..1 (0.15): outward push at full flexion, share of the local radius */
-    SD_JOINT_BULGE_FALLOFF = 3,       /* 0.05..0.5 (0.35): width of the muscle's smooth edge, share of its extent */
-    SD_JOINT_FOLDING_FALLOFF = 4,     /* >= 0 (0 = automatic): radius of the folding falloff, units */
-    SD_JOINT_FOLDING_MARGIN = 5,      /* >= 0 (0 = automatic): gap kept between folded skin, units */
-    SD_JOINT_REGION_RADIUS = 6        /* >= 0 (0 = automatic): collision region around the joint at rest */
+    SD_JOINT_PARAM_PROTRUSION_STRENGTH = 0, /* 0..2 (1): scales the push out of a bone proxy */
+    SD_JOINT_PARAM_PROTRUSION_FALLOFF = 1,  /* >= 0 (0 = automatic): radius of its smooth falloff, units */
+    SD_JOINT_PARAM_BULGE_STRENGTH = 2,      /* 0..1 (0.15): outward push at full flexion, share of the local radius */
+    SD_JOINT_PARAM_BULGE_FALLOFF = 3,       /* 0.05..0.5 (0.35): width of the muscle's smooth edge, share of its extent */
+    SD_JOINT_PARAM_FOLDING_FALLOFF = 4,     /* >= 0 (0 = automatic): radius of the folding falloff, units */
+    SD_JOINT_PARAM_FOLDING_MARGIN = 5,      /* >= 0 (0 = automatic): gap kept between folded skin, units */
+    SD_JOINT_PARAM_REGION_RADIUS = 6        /* >= 0 (0 = automatic): collision region around the joint at rest */
 } sd_joint_parameter;
 
 /*

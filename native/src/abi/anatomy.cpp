@@ -104,10 +104,10 @@ sd_status sd_anatomy_add_joint(sd_anatomy* anatomy, int32_t lower_bone, int32_t 
                                const float* flexion_direction, int32_t* out_joint) {
     return guarded(__func__, [&] {
         sd::anatomy::Anatomy& a = of(anatomy);
-        SD_REQUIRE(kind >= SD_JOINT_GENERIC && kind <= SD_JOINT_KNEE, "kind must be 0, 1 or 2");
+        SD_REQUIRE(kind >= SD_JOINT_KIND_GENERIC && kind <= SD_JOINT_KIND_KNEE, "kind must be 0, 1 or 2");
         SD_REQUIRE(lower_bone >= 0 && lower_bone < a.rig().skeleton.bone_count(),
                    "lower_bone " + std::to_string(lower_bone) + " is out of range");
-        SD_REQUIRE(flexion_direction || kind == SD_JOINT_GENERIC, "an elbow or a knee needs flexion_direction");
+        SD_REQUIRE(flexion_direction || kind == SD_JOINT_KIND_GENERIC, "an elbow or a knee needs flexion_direction");
         sd::dvec3 f(0.0);
         if (flexion_direction) {
             require_finite(flexion_direction, 3, "flexion_direction");
@@ -158,13 +158,13 @@ sd_status sd_anatomy_get_joint_effects(const sd_anatomy* anatomy, int32_t joint,
 namespace {
 double* parameter(JointSettings& s, int32_t p) {
     switch (p) {
-        case SD_JOINT_PROTRUSION_STRENGTH: return &s.protrusion_strength;
-        case SD_JOINT_PROTRUSION_FALLOFF: return &s.protrusion_falloff;
-        case SD_JOINT_BULGE_STRENGTH: return &s.bulge_strength;
-        case SD_JOINT_BULGE_FALLOFF: return &s.bulge_falloff;
-        case SD_JOINT_FOLDING_FALLOFF: return &s.folding_falloff;
-        case SD_JOINT_FOLDING_MARGIN: return &s.folding_margin;
-        case SD_JOINT_REGION_RADIUS: return &s.region_radius;
+        case SD_JOINT_PARAM_PROTRUSION_STRENGTH: return &s.protrusion_strength;
+        case SD_JOINT_PARAM_PROTRUSION_FALLOFF: return &s.protrusion_falloff;
+        case SD_JOINT_PARAM_BULGE_STRENGTH: return &s.bulge_strength;
+        case SD_JOINT_PARAM_BULGE_FALLOFF: return &s.bulge_falloff;
+        case SD_JOINT_PARAM_FOLDING_FALLOFF: return &s.folding_falloff;
+        case SD_JOINT_PARAM_FOLDING_MARGIN: return &s.folding_margin;
+        case SD_JOINT_PARAM_REGION_RADIUS: return &s.region_radius;
         default: throw sd::InvalidInput("parameter " + std::to_string(p) + " is unknown");
     }
 }

@@ -1,8 +1,7 @@
-// The C ABI of the continuous displacement map (sweepdeform.h, "continuous displacement
-// map"). Compiled into the separate library libsweepdeform_dmap.so, which links OpenSubdiv
+// The C ABI of the continuous displacement map (sweepdeform_dmap.h). Compiled into the separate library libsweepdeform_dmap.so, which links OpenSubdiv
 // and its own (hidden) copy of the core, and talks to libsweepdeform only through rig and
 // binding blobs. Its messages go to sd_dmap_last_error(). No exception leaves this file.
-#include "sweepdeform/sweepdeform.h"
+#include "sweepdeform/sweepdeform_dmap.h"
 
 #include "abi/guard.h"
 #include "dmap/displacement_map.h"
@@ -18,8 +17,8 @@ struct sd_displacement_map {
     sd::DisplacementMap map;
 };
 
-struct sd_dmap_blob {
-    std::vector<uint8_t> bytes;
+struct sd_dmap_binding {
+    std::vector<uint8_t> blob;
 };
 
 namespace {
@@ -110,28 +109,31 @@ sd_status sd_dmap_evaluate(const sd_displacement_map* map, int32_t sweep, int32_
 }
 
 sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_count, const float* positions, float snap,
-                       int32_t* out_snapped, sd_dmap_blob** out_binding_blob) {
+                       int32_t* out_snapped, sd_dmap_binding** out_binding) {
     return guarded(__func__, [&] {
         SD_REQUIRE(map, "map is NULL");
-        SD_REQUIRE(out_binding_blob, "out_binding_blob is NULL");
+        SD_REQUIRE(out_binding, "out_binding is NULL");
         SD_REQUIRE(snap >= 0.0f, "snap must be >= 0 (SD_DMAP_SNAP_EXACT .. SD_DMAP_SNAP_SURFACE)");
         SD_REQUIRE(point_count >= 1 && point_count <= 50'000'000, "point_count must be in 1..5e7");
         SD_REQUIRE(positions, "positions is NULL");
         int snapped = 0;
         const sd::Binding b = map->map.bind(map->rig, point_count, positions, static_cast<double>(snap), &snapped);
-        auto blob = std::make_unique<sd_dmap_blob>();
-        blob->bytes = sd::serialize_binding(b);
+        auto binding = std::make_unique<sd_dmap_binding>();
+        binding->blob = sd::serialize_binding(b);
         if (out_snapped) *out_snapped = snapped;
-        *out_binding_blob = blob.release();
+        *out_binding = binding.release();
         return SD_OK;
     });
 }
 
-const uint8_t* sd_dmap_blob_data(const sd_dmap_blob* blob, int64_t* out_size) {
-    if (out_size) *out_size = blob ? static_cast<int64_t>(blob->bytes.size()) : 0;
-    return blob ? blob->bytes.data() : nullptr;
+sd_status sd_dmap_binding_serialize(const sd_dmap_binding* binding, uint8_t* buffer, int64_t capacity,
+                                    int64_t* out_size) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(binding, "binding is NULL");
+        return sd::abi::write_blob(binding->blob, buffer, capacity, out_size);
+    });
 }
 
-void sd_dmap_blob_destroy(sd_dmap_blob* blob) { delete blob; }
+void sd_dmap_binding_destroy(sd_dmap_binding* binding) { delete binding; }
 
 }  // extern "C"

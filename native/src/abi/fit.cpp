@@ -110,8 +110,12 @@ sd_status sd_fit_result_weights(const sd_fit_result* result, int32_t vertex_coun
     });
 }
 
-const char* sd_fit_result_report(const sd_fit_result* result) {
-    return result ? result->result.report.c_str() : "";
+sd_status sd_fit_result_report(const sd_fit_result* result, char* buffer, int64_t capacity, int64_t* out_size) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(result, "result is NULL");
+        const std::string& report = result->result.report;
+        return sd::abi::write_bytes(report.c_str(), report.size() + 1, buffer, capacity, out_size, "the report");
+    });
 }
 
 }  // extern "C"

@@ -1,5 +1,5 @@
 // Shared by the C ABI's translation units: the opaque handles, status mapping, the thread-local
-// message, the exception barrier, and the two helpers several ABI areas use (blobs into the
+// message, the exception barrier, and the helpers several ABI areas use (bytes into the
 // caller's buffer, a sweep by index). Internal; not installed.
 #pragma once
 
@@ -71,19 +71,26 @@ sd_status guarded(const char* function, F&& f, sd_status invalid_input = SD_ERR_
 
 namespace sd::abi {
 
-/// Size query, then fill: *out_size = the blob's size; copies it into buffer unless buffer is
-/// NULL; a buffer smaller than the blob is an error. Inside guarded().
+/// Size query, then fill: *out_size = size (bytes); copies data into buffer unless buffer is
+/// NULL; a buffer smaller than size is an error naming `what`. Inside guarded().
+template <class Byte>
+sd_status write_bytes(const Byte* data, size_t size, Byte* buffer, int64_t capacity, int64_t* out_size,
+                      const char* what) {
+    SD_REQUIRE(out_size, "out_size is NULL");
+    *out_size = static_cast<int64_t>(size);
+    if (!buffer) return SD_OK;
+    if (capacity < static_cast<int64_t>(size))
+        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) +
+                                                 " is smaller than " + what + " (" +
+                                                 std::to_string(size) + " bytes)");
+    std::copy(data, data + size, buffer);
+    return SD_OK;
+}
+
+/// write_bytes for a rig or binding blob.
 inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, int64_t capacity,
                             int64_t* out_size) {
-    SD_REQUIRE(out_size, "out_size is NULL");
-    *out_size = static_cast<int64_t>(blob.size());
-    if (!buffer) return SD_OK;
-    if (capacity < static_cast<int64_t>(blob.size()))
-        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) +
-                                                 " is smaller than the blob (" +
-                                                 std::to_string(blob.size()) + " bytes)");
-    std::copy(blob.begin(), blob.end(), buffer);
-    return SD_OK;
+    return write_bytes(blob.data(), blob.size(), buffer, capacity, out_size, "the blob");
 }
 
 /// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
