@@ -32,7 +32,7 @@ private:
     size_t n_;
 };
 
-/// Three bones along +x and one sweep of seven keys (see tests/native/test_arm.h).
+/// Three bones along +x and one sweep of seven keys (see tests/support/test_arm.h).
 struct Arm {
     int32_t parents[3] = {-1, 0, 1};
     float rest[48] = {};

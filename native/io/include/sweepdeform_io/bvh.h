@@ -111,7 +111,7 @@ struct BvhRetargetOptions {
 
 /// Poses a character from a BVH clip: the retarget of ../shared/data/README.md Sect. 2.3,
 /// which reproduces the *_anims.glb files' bone matrices to 0.02 degrees and 0.05 mm (see
-/// tests/native/cli_test.cpp), with one deliberate difference (root_rest_from_offset).
+/// tests/native/cli/cli_test.cpp), with one deliberate difference (root_rest_from_offset).
 ///  * Every mapped bone b driven by joint j gets j's world rotation change relative to the
 ///    BVH rest pose, applied after a per-bone swing S_b that turns b's rest direction (head
 ///    to tail; the character's A-pose) onto the direction of the bone Blender's BVH importer

@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """A tiny stand-in for Blender's `bpy`, enough to run the job type's BAKE and RENDER Python
-outside Blender (tools/flamenco/test). One scene "Scene", an armature "Armature" with actions
+outside Blender (pipeline/flamenco/test). One scene "Scene", an armature "Armature" with actions
 "walk" and "run", and a mesh "Body" of 3 vertices with the modifiers
 [Armature (off), Sweep Deform (geometry nodes), Subdivision]. The evaluated mesh's vertex v at
 frame f is (v, f, 10 * action index) — what a bake must write. SWEEP_DEFORM_STATE in the

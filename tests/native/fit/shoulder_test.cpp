@@ -3,7 +3,7 @@
 // moves — skin on the spine, the neck or the clavicle — stays where linear blend skinning
 // puts it, and the trunk's skin stays smooth (no fold where arm-bound skin swings up while
 // the skin above stays with the torso).
-#include "fit_support.h"
+#include "character_fit.h"
 #include "bind/bind.h"
 #include "deform/deform.h"
 #include "fit/fit_rig.h"
@@ -30,8 +30,8 @@ std::string data_file(const std::string& name) {
     return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name;
 }
 
-using testing::character_input;
-using testing::skeleton_of;
+using character_fit::character_input;
+using character_fit::skeleton_of;
 
 bool below(const Skeleton& s, int b, int root) {
     for (int x = b; x >= 0; x = s.parents[x])

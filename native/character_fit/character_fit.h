@@ -1,5 +1,6 @@
-// The automatic fitting's input from a test character (its own skin weights, 4 per vertex),
-// and fit + bind as the add-on does it; shared by the native tests and the benchmarks.
+// The automatic fitting's input from a character loaded by sweepdeform_io (its own skin
+// weights, 4 per vertex), and fit + bind as the add-on does it; for the native tests and the
+// benchmarks (target sweepdeform_character_fit: the core and sweepdeform_io, header-only).
 #pragma once
 
 #include "bind/bind.h"
@@ -7,7 +8,7 @@
 
 #include <sweepdeform_io/character.h>
 
-namespace sd::testing {
+namespace sd::character_fit {
 
 inline Skeleton skeleton_of(const io::Character& c) {
     return Skeleton::from_arrays(static_cast<int>(c.bone_names.size()), c.bone_parents.data(),
@@ -42,4 +43,4 @@ inline Binding bind_fitted(const io::Character& c, const fit::FitResult& f) {
     return bind_fitted(f, static_cast<int>(c.positions.size() / 3), c.positions.data());
 }
 
-}  // namespace sd::testing
+}  // namespace sd::character_fit

@@ -1,6 +1,6 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 //
-// The "Sweep Deform Bake" Flamenco job type under Node (node --test tools/flamenco/test):
+// The "Sweep Deform Bake" Flamenco job type under Node (node --test pipeline/flamenco/test):
 // its JOB_TYPE settings, the tasks, commands and dependencies compileJob() authors against a
 // mock of Flamenco's author API (flamenco_mock.js), and the Python it hands to Blender, run
 // with python3 against a stand-in `bpy` (fake_bpy/bpy.py): bake chunks, merge them, switch a

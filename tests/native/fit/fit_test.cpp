@@ -3,7 +3,7 @@
 // ../shared/data: chains, binding coverage, rest round trip, elbow/knee key areas against
 // the true cross-section, 90° bends through the character's own skeleton, and the time of
 // fitting + binding the refined 80K-vertex MakeHuman.
-#include "fit_support.h"
+#include "character_fit.h"
 #include "point_metrics.h"
 #include "bind/bind.h"
 #include "deform/deform.h"
@@ -265,7 +265,7 @@ TEST(FitAnalytic, MitredTubeElbowKeyIsTheMitreEllipse) {
     }
     // Bind and deform: rest reproduces; a 90° bend keeps the tube finite and the far end
     // rigid with the second bone.
-    const Binding binding = testing::bind_fitted(res, m.vertex_count(), m.positions.data());
+    const Binding binding = character_fit::bind_fitted(res, m.vertex_count(), m.positions.data());
     Deformer d(res.rig, binding);
     std::vector<float> out(m.positions.size());
     d.deform(rest_pose(s).data(), out.data());
@@ -507,8 +507,8 @@ std::string data_file(const std::string& name) {
 #define REQUIRE_DATA(path) \
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found: skipped"
 
-using testing::character_input;
-using testing::skeleton_of;
+using character_fit::character_input;
+using character_fit::skeleton_of;
 
 /// Area of the mesh's cross-section in the plane (o, n) inside the disc of radius R about
 /// o, by Green's theorem over every triangle's cut segment, oriented by the triangle's
@@ -615,7 +615,7 @@ void check_character(const io::Character& c, const CharacterCase& cc, const std:
     const auto t0 = std::chrono::steady_clock::now();
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
     const auto t1 = std::chrono::steady_clock::now();
-    const Binding binding = testing::bind_fitted(r, V, c.positions.data());
+    const Binding binding = character_fit::bind_fitted(r, V, c.positions.data());
     const auto t2 = std::chrono::steady_clock::now();
     std::printf("%s: %d vertices; fit %.0f ms + bind %.0f ms\n", label.c_str(), V,
                 std::chrono::duration<double, std::milli>(t1 - t0).count(),
@@ -820,7 +820,7 @@ TEST(FitCharacterGeometry, MakeHumanWithoutSkinWeights) {
     EXPECT_EQ(r.rig.sweeps.size(), 6u) << r.report;
     const int V = static_cast<int>(c.positions.size() / 3);
     EXPECT_GE(r.weights.vertices_bound, V * 99 / 100);
-    const Binding binding = testing::bind_fitted(r, V, c.positions.data());
+    const Binding binding = character_fit::bind_fitted(r, V, c.positions.data());
     Deformer d(r.rig, binding);
     std::vector<float> out(c.positions.size());
     d.deform(io::rest_pose(c).data(), out.data());
@@ -849,7 +849,7 @@ TEST_P(FitMotion, MocapPosesStayCloseToSkinning) {
     const fit::FitResult r = fit::fit_rig(in);
     ASSERT_EQ(r.rig.sweeps.size(), 6u) << r.report;
     const int V = static_cast<int>(c.positions.size() / 3);
-    Deformer d(r.rig, testing::bind_fitted(r, V, c.positions.data()));
+    Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
     const double diag = diagonal(c.positions);
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     double worst_mean = 0.0, worst_max = 0.0;
@@ -893,7 +893,7 @@ TEST(FitCharacterTiming, RefinedMakeHumanFitPlusBind) {
     const auto t0 = std::chrono::steady_clock::now();
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
     const auto t1 = std::chrono::steady_clock::now();
-    const Binding binding = testing::bind_fitted(r, V, c.positions.data());
+    const Binding binding = character_fit::bind_fitted(r, V, c.positions.data());
     const auto t2 = std::chrono::steady_clock::now();
     const double fit_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
     const double bind_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
