@@ -47,7 +47,10 @@ private:
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
 
-    // Per-frame scratch, kept to avoid allocating every frame.
+    // Kept from frame to frame: the posed skeleton, the half-spans' coefficients (sized once,
+    // in the constructor) and the bones' affine maps. A frame still allocates: bone_affines()
+    // returns a new vector, and prepare_sweeps() builds per sweep the posed keys, the
+    // half-axes, the sweep's geometry and volume form, and the half-axis changes.
     SkeletonPose pose_;
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;
