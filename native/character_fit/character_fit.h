@@ -11,8 +11,8 @@
 namespace sd::character_fit {
 
 inline Skeleton skeleton_of(const io::Character& c) {
-    return Skeleton::from_arrays(static_cast<int>(c.bone_names.size()), c.bone_parents.data(),
-                                 c.bone_rest.data(), c.bone_heads.data(), c.bone_tails.data());
+    return Skeleton::from_arrays(static_cast<int>(c.bone_names.size()), c.bone_parents.data(), c.bone_rest.data(),
+                                 c.bone_heads.data(), c.bone_tails.data());
 }
 
 inline fit::FitInput character_input(const io::Character& c, const Skeleton& s) {

@@ -36,7 +36,6 @@ struct BoneRig {
 
 /// Builds the rig: chains resolved by name (@throws std::runtime_error naming a missing
 /// bone), `intermediate_keys` per link.
-BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chains,
-                      int intermediate_keys = 2);
+BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chains, int intermediate_keys = 2);
 
 }  // namespace sd::testing

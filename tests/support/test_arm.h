@@ -75,11 +75,9 @@ struct Arm {
     /// by `twist` radians about the forearm axis.
     std::vector<float> pose(double bend, double twist = 0.0) const {
         const dvec3 elbow(1, 0, 0), wrist(2, 0, 0);
-        const dmat4 bend_m = glm::translate(dmat4(1.0), elbow) *
-                             glm::rotate(dmat4(1.0), bend, dvec3(0, 0, 1)) *
+        const dmat4 bend_m = glm::translate(dmat4(1.0), elbow) * glm::rotate(dmat4(1.0), bend, dvec3(0, 0, 1)) *
                              glm::translate(dmat4(1.0), -elbow);
-        const dmat4 twist_m = glm::translate(dmat4(1.0), wrist) *
-                              glm::rotate(dmat4(1.0), twist, dvec3(1, 0, 0)) *
+        const dmat4 twist_m = glm::translate(dmat4(1.0), wrist) * glm::rotate(dmat4(1.0), twist, dvec3(1, 0, 0)) *
                               glm::translate(dmat4(1.0), -wrist);
         const dmat4 deform[3] = {dmat4(1.0), bend_m, bend_m * twist_m};
         std::vector<float> out;

@@ -63,13 +63,12 @@ SD_API void sd_dmap_destroy(sd_displacement_map* map);
 SD_API int32_t sd_dmap_sweep_count(const sd_displacement_map* map);
 /* Fit residuals per sweep at its own samples (#S each, any may be NULL): sample counts,
  * weighted RMS and max of |d_V - d(θ_V, t_V)| in the rig's units. */
-SD_API sd_status sd_dmap_fit_errors(const sd_displacement_map* map, int32_t sweep_count,
-                                    int32_t* samples, float* rms, float* max);
+SD_API sd_status sd_dmap_fit_errors(const sd_displacement_map* map, int32_t sweep_count, int32_t* samples, float* rms,
+                                    float* max);
 /* d(θ_i, t_i) of one sweep for `count` parameter pairs: displacements #count*3 (local frame)
  * and/or rest_points #count*3 (armature space, S(θ,t) + R(t) d(θ,t)); either may be NULL. */
-SD_API sd_status sd_dmap_evaluate(const sd_displacement_map* map, int32_t sweep, int32_t count,
-                                  const float* theta, const float* t, float* displacements,
-                                  float* rest_points);
+SD_API sd_status sd_dmap_evaluate(const sd_displacement_map* map, int32_t sweep, int32_t count, const float* theta,
+                                  const float* t, float* displacements, float* rest_points);
 /*
  * Binds `point_count` rest points (#N*3, armature space; no connectivity needed) through the
  * map (which keeps the rig it was fitted with): weights from the closest point of the fitted
@@ -84,14 +83,13 @@ SD_API sd_status sd_dmap_evaluate(const sd_displacement_map* map, int32_t sweep,
  * with that rig's handle.
  */
 typedef struct sd_dmap_binding sd_dmap_binding;
-SD_API sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_count,
-                              const float* positions, float snap, int32_t* out_snapped,
-                              sd_dmap_binding** out_binding);
+SD_API sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_count, const float* positions, float snap,
+                              int32_t* out_snapped, sd_dmap_binding** out_binding);
 /* The binding's blob, for sd_binding_deserialize() of libsweepdeform, into the caller's
  * buffer: call with buffer NULL to get *out_size, then with a buffer of that capacity (as
  * sd_binding_serialize). */
-SD_API sd_status sd_dmap_binding_serialize(const sd_dmap_binding* binding, uint8_t* buffer,
-                                           int64_t capacity, int64_t* out_size);
+SD_API sd_status sd_dmap_binding_serialize(const sd_dmap_binding* binding, uint8_t* buffer, int64_t capacity,
+                                           int64_t* out_size);
 SD_API void sd_dmap_binding_destroy(sd_dmap_binding* binding);
 
 #ifdef __cplusplus

@@ -36,8 +36,7 @@ const sd::anatomy::Anatomy& of(const sd_anatomy* a) {
 
 void require_joint(const sd::anatomy::Anatomy& a, int32_t joint) {
     SD_REQUIRE(joint >= 0 && joint < a.joint_count(),
-               "joint " + std::to_string(joint) + " is out of range (" + std::to_string(a.joint_count()) +
-                   " joints)");
+               "joint " + std::to_string(joint) + " is out of range (" + std::to_string(a.joint_count()) + " joints)");
 }
 
 /// SD_OK, or the status to return when `d` does not fit the anatomy.
@@ -59,8 +58,7 @@ sd_status check_deformer(sd_anatomy* a, const sd_deformer* d) {
     return SD_OK;
 }
 
-sd_status check_pose(const sd::anatomy::Anatomy& a, int32_t bone_count, const float* pose,
-                     int32_t vertex_count) {
+sd_status check_pose(const sd::anatomy::Anatomy& a, int32_t bone_count, const float* pose, int32_t vertex_count) {
     SD_REQUIRE(pose, "pose is NULL");
     if (bone_count != a.rig().skeleton.bone_count())
         return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
@@ -100,8 +98,8 @@ sd_status sd_anatomy_create(const sd_rig* rig, const sd_binding* binding, int32_
 
 void sd_anatomy_destroy(sd_anatomy* anatomy) { delete anatomy; }
 
-sd_status sd_anatomy_add_joint(sd_anatomy* anatomy, int32_t lower_bone, int32_t kind,
-                               const float* flexion_direction, int32_t* out_joint) {
+sd_status sd_anatomy_add_joint(sd_anatomy* anatomy, int32_t lower_bone, int32_t kind, const float* flexion_direction,
+                               int32_t* out_joint) {
     return guarded(__func__, [&] {
         sd::anatomy::Anatomy& a = of(anatomy);
         SD_REQUIRE(kind >= SD_JOINT_KIND_GENERIC && kind <= SD_JOINT_KIND_KNEE, "kind must be 0, 1 or 2");
@@ -113,7 +111,8 @@ sd_status sd_anatomy_add_joint(sd_anatomy* anatomy, int32_t lower_bone, int32_t 
             require_finite(flexion_direction, 3, "flexion_direction");
             f = sd::dvec3(flexion_direction[0], flexion_direction[1], flexion_direction[2]);
         }
-        const int j = a.add_joint(lower_bone, static_cast<sd::anatomy::JointKind>(kind), flexion_direction ? &f : nullptr);
+        const int j =
+            a.add_joint(lower_bone, static_cast<sd::anatomy::JointKind>(kind), flexion_direction ? &f : nullptr);
         if (out_joint) *out_joint = j;
         return SD_OK;
     });
@@ -158,14 +157,22 @@ sd_status sd_anatomy_get_joint_effects(const sd_anatomy* anatomy, int32_t joint,
 namespace {
 double* parameter(JointSettings& s, int32_t p) {
     switch (p) {
-        case SD_JOINT_PARAM_PROTRUSION_STRENGTH: return &s.protrusion_strength;
-        case SD_JOINT_PARAM_PROTRUSION_FALLOFF: return &s.protrusion_falloff;
-        case SD_JOINT_PARAM_BULGE_STRENGTH: return &s.bulge_strength;
-        case SD_JOINT_PARAM_BULGE_FALLOFF: return &s.bulge_falloff;
-        case SD_JOINT_PARAM_FOLDING_FALLOFF: return &s.folding_falloff;
-        case SD_JOINT_PARAM_FOLDING_MARGIN: return &s.folding_margin;
-        case SD_JOINT_PARAM_REGION_RADIUS: return &s.region_radius;
-        default: throw sd::InvalidInput("parameter " + std::to_string(p) + " is unknown");
+        case SD_JOINT_PARAM_PROTRUSION_STRENGTH:
+            return &s.protrusion_strength;
+        case SD_JOINT_PARAM_PROTRUSION_FALLOFF:
+            return &s.protrusion_falloff;
+        case SD_JOINT_PARAM_BULGE_STRENGTH:
+            return &s.bulge_strength;
+        case SD_JOINT_PARAM_BULGE_FALLOFF:
+            return &s.bulge_falloff;
+        case SD_JOINT_PARAM_FOLDING_FALLOFF:
+            return &s.folding_falloff;
+        case SD_JOINT_PARAM_FOLDING_MARGIN:
+            return &s.folding_margin;
+        case SD_JOINT_PARAM_REGION_RADIUS:
+            return &s.region_radius;
+        default:
+            throw sd::InvalidInput("parameter " + std::to_string(p) + " is unknown");
     }
 }
 }  // namespace
@@ -193,9 +200,8 @@ sd_status sd_anatomy_get_joint_parameter(const sd_anatomy* anatomy, int32_t join
     });
 }
 
-sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint, int32_t vertex_count,
-                                     const float* positions, int32_t triangle_count,
-                                     const int32_t* triangles, float fraction) {
+sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint, int32_t vertex_count, const float* positions,
+                                     int32_t triangle_count, const int32_t* triangles, float fraction) {
     return guarded(__func__, [&] {
         sd::anatomy::Anatomy& a = of(anatomy);
         require_joint(a, joint);
@@ -229,8 +235,8 @@ sd_status sd_anatomy_set_folding_iterations(sd_anatomy* anatomy, int32_t iterati
     });
 }
 
-sd_status sd_anatomy_apply(sd_anatomy* anatomy, sd_deformer* deformer, int32_t bone_count,
-                           const float* pose, int32_t vertex_count, float* positions) {
+sd_status sd_anatomy_apply(sd_anatomy* anatomy, sd_deformer* deformer, int32_t bone_count, const float* pose,
+                           int32_t vertex_count, float* positions) {
     return guarded(__func__, [&] {
         sd::anatomy::Anatomy& a = of(anatomy);
         if (deformer) {
@@ -248,8 +254,8 @@ sd_status sd_anatomy_apply(sd_anatomy* anatomy, sd_deformer* deformer, int32_t b
     });
 }
 
-sd_status sd_deform_with_anatomy(sd_deformer* deformer, sd_anatomy* anatomy, int32_t bone_count,
-                                 const float* pose, int32_t vertex_count, float* out_positions) {
+sd_status sd_deform_with_anatomy(sd_deformer* deformer, sd_anatomy* anatomy, int32_t bone_count, const float* pose,
+                                 int32_t vertex_count, float* out_positions) {
     return guarded(__func__, [&] {
         sd::anatomy::Anatomy& a = of(anatomy);
         sd_status s = check_deformer(anatomy, deformer);
@@ -270,15 +276,30 @@ sd_status sd_anatomy_get_stats(const sd_anatomy* anatomy, int32_t count, double*
         SD_REQUIRE(count >= 0 && count <= SD_STAT_COUNT, "count must be in 0..SD_STAT_COUNT");
         SD_REQUIRE(values || count == 0, "values is NULL");
         const sd::anatomy::AnatomyStats& st = a.stats();
-        const double all[SD_STAT_COUNT] = {
-            st.ms_sweeps, st.ms_bulge, st.ms_protrusion, st.ms_collision, st.ms_folding, st.ms_volume,
-            st.ms_total, static_cast<double>(st.collision_triangles), static_cast<double>(st.pairs_before),
-            static_cast<double>(st.pairs_after), static_cast<double>(st.folding_iterations),
-            static_cast<double>(st.folding_regions), static_cast<double>(st.bulge_vertices),
-            static_cast<double>(st.protrusion_vertices), static_cast<double>(st.folding_vertices),
-            static_cast<double>(st.falloff_vertices), static_cast<double>(st.relaxed_vertices), st.max_bulge,
-            st.max_protrusion, st.max_fold_depth, st.volume_change, st.effects_volume,
-            static_cast<double>(st.passes), st.restored_volume};
+        const double all[SD_STAT_COUNT] = {st.ms_sweeps,
+                                           st.ms_bulge,
+                                           st.ms_protrusion,
+                                           st.ms_collision,
+                                           st.ms_folding,
+                                           st.ms_volume,
+                                           st.ms_total,
+                                           static_cast<double>(st.collision_triangles),
+                                           static_cast<double>(st.pairs_before),
+                                           static_cast<double>(st.pairs_after),
+                                           static_cast<double>(st.folding_iterations),
+                                           static_cast<double>(st.folding_regions),
+                                           static_cast<double>(st.bulge_vertices),
+                                           static_cast<double>(st.protrusion_vertices),
+                                           static_cast<double>(st.folding_vertices),
+                                           static_cast<double>(st.falloff_vertices),
+                                           static_cast<double>(st.relaxed_vertices),
+                                           st.max_bulge,
+                                           st.max_protrusion,
+                                           st.max_fold_depth,
+                                           st.volume_change,
+                                           st.effects_volume,
+                                           static_cast<double>(st.passes),
+                                           st.restored_volume};
         for (int32_t i = 0; i < count; ++i) values[i] = all[i];
         return SD_OK;
     });
@@ -295,8 +316,8 @@ sd_status sd_anatomy_get_volume_offsets(const sd_anatomy* anatomy, int32_t sweep
     });
 }
 
-sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t vertex_count,
-                                         const float* positions, int32_t* out_pairs) {
+sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t vertex_count, const float* positions,
+                                         int32_t* out_pairs) {
     return guarded(__func__, [&] {
         sd::anatomy::Anatomy& a = of(anatomy);
         SD_REQUIRE(positions && out_pairs, "positions or out_pairs is NULL");

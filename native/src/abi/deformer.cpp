@@ -52,13 +52,11 @@ sd_status sd_deformer_set_volume_offsets(sd_deformer* d, int32_t sweep_count, co
     });
 }
 
-sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
-                    float* out_positions) {
+sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count, float* out_positions) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
         if (bone_count != d->deformer->rig().skeleton.bone_count())
-            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) +
-                                             " bones, the rig " +
+            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
                                              std::to_string(d->deformer->rig().skeleton.bone_count()));
         if (vertex_count != d->deformer->vertex_count())
             return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
@@ -69,8 +67,8 @@ sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32
     });
 }
 
-sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, double* rest,
-                                  double* before, double* after) {
+sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, double* rest, double* before,
+                                  double* after) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d, "deformer is NULL");
         const sd::Deformer& def = *d->deformer;
@@ -85,8 +83,7 @@ sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, dou
     });
 }
 
-sd_status sd_deformer_get_volume_iterations(const sd_deformer* d, int32_t sweep_count,
-                                            int32_t* iterations) {
+sd_status sd_deformer_get_volume_iterations(const sd_deformer* d, int32_t sweep_count, int32_t* iterations) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d && iterations, "deformer or iterations is NULL");
         if (sweep_count != static_cast<int32_t>(d->deformer->rig().sweeps.size()))

@@ -38,8 +38,8 @@ extern "C" {
 const char* sd_dmap_last_error(void) { return sd::abi::last_error().c_str(); }
 
 sd_status sd_dmap_fit(const uint8_t* rig_blob, int64_t rig_size, const uint8_t* binding_blob, int64_t binding_size,
-                      int32_t triangle_count, const int32_t* triangles, int32_t theta_cells,
-                      int32_t t_cells_per_span, float smoothing, sd_displacement_map** out_map) {
+                      int32_t triangle_count, const int32_t* triangles, int32_t theta_cells, int32_t t_cells_per_span,
+                      float smoothing, sd_displacement_map** out_map) {
     return guarded(__func__, [&] {
         SD_REQUIRE(out_map, "out_map is NULL");
         SD_REQUIRE(binding_blob && binding_size > 0, "binding blob is NULL or empty");

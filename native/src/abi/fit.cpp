@@ -21,12 +21,11 @@ using sd::abi::guarded;
 
 extern "C" {
 
-sd_status sd_fit_rig(int32_t vertex_count, const float* positions, int32_t triangle_count,
-                     const int32_t* triangles, int32_t bone_count, const int32_t* parents, const float* rest,
-                     const float* heads, const float* tails, const char* const* bone_names,
-                     int32_t skin_slots, const int32_t* skin_bones, const float* skin_weights,
-                     int32_t keys_per_link, int32_t chain_count, const int32_t* chain_offsets,
-                     const int32_t* chain_bones, sd_fit_result** out_result) {
+sd_status sd_fit_rig(int32_t vertex_count, const float* positions, int32_t triangle_count, const int32_t* triangles,
+                     int32_t bone_count, const int32_t* parents, const float* rest, const float* heads,
+                     const float* tails, const char* const* bone_names, int32_t skin_slots, const int32_t* skin_bones,
+                     const float* skin_weights, int32_t keys_per_link, int32_t chain_count,
+                     const int32_t* chain_offsets, const int32_t* chain_bones, sd_fit_result** out_result) {
     return guarded(__func__, [&] {
         SD_REQUIRE(out_result, "out_result is NULL");
         SD_REQUIRE(skin_slots >= 0 && skin_slots <= 64, "skin_slots must be in 0..64");
@@ -51,9 +50,7 @@ sd_status sd_fit_rig(int32_t vertex_count, const float* positions, int32_t trian
     });
 }
 
-void sd_fit_result_destroy(sd_fit_result* result) {
-    delete result;
-}
+void sd_fit_result_destroy(sd_fit_result* result) { delete result; }
 
 sd_status sd_fit_result_rig(const sd_fit_result* result, sd_rig** out_rig) {
     return guarded(__func__, [&] {
@@ -75,15 +72,14 @@ sd_status sd_fit_result_slot_counts(const sd_fit_result* result, int32_t* sweep_
 }
 
 sd_status sd_fit_result_weights(const sd_fit_result* result, int32_t vertex_count, int32_t sweep_slots,
-                                int32_t* sweep_ids, float* sweep_weights, int32_t bone_slots,
-                                int32_t* bone_ids, float* bone_weights) {
+                                int32_t* sweep_ids, float* sweep_weights, int32_t bone_slots, int32_t* bone_ids,
+                                float* bone_weights) {
     return guarded(__func__, [&] {
         SD_REQUIRE(result, "result is NULL");
         const sd::fit::RegionWeights& w = result->result.weights;
         const int V = result->result.mesh.vertices;
         if (vertex_count != V)
-            return fail(SD_ERR_MISMATCH, std::string(__func__) + ": vertex_count " +
-                                             std::to_string(vertex_count) +
+            return fail(SD_ERR_MISMATCH, std::string(__func__) + ": vertex_count " + std::to_string(vertex_count) +
                                              " differs from the fitted mesh's " + std::to_string(V));
         SD_REQUIRE(sweep_slots >= w.sweep_slots && sweep_slots <= 64,
                    "sweep_slots must be in " + std::to_string(w.sweep_slots) + "..64");

@@ -64,8 +64,8 @@ sd_status guarded(const char* function, F&& f, sd_status invalid_input = SD_ERR_
 
 }  // namespace sd::abi
 
-#define SD_REQUIRE(cond, message) \
-    do { \
+#define SD_REQUIRE(cond, message)                     \
+    do {                                              \
         if (!(cond)) throw sd::InvalidInput(message); \
     } while (0)
 
@@ -80,16 +80,14 @@ sd_status write_bytes(const Byte* data, size_t size, Byte* buffer, int64_t capac
     *out_size = static_cast<int64_t>(size);
     if (!buffer) return SD_OK;
     if (capacity < static_cast<int64_t>(size))
-        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) +
-                                                 " is smaller than " + what + " (" +
-                                                 std::to_string(size) + " bytes)");
+        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) + " is smaller than " +
+                                                 what + " (" + std::to_string(size) + " bytes)");
     std::copy(data, data + size, buffer);
     return SD_OK;
 }
 
 /// write_bytes for a rig or binding blob.
-inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, int64_t capacity,
-                            int64_t* out_size) {
+inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, int64_t capacity, int64_t* out_size) {
     return write_bytes(blob.data(), blob.size(), buffer, capacity, out_size, "the blob");
 }
 

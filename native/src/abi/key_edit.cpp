@@ -20,8 +20,8 @@ using sd::abi::sweep_of;
 
 const sd::KeyEllipse& key_of(const sd_rig* rig, int32_t sweep, int32_t key) {
     const sd::Sweep& s = sweep_of(rig, sweep);
-    SD_REQUIRE(key >= 0 && key < s.key_count(), "key index " + std::to_string(key) +
-                                                    " is out of range for sweep " + std::to_string(sweep));
+    SD_REQUIRE(key >= 0 && key < s.key_count(),
+               "key index " + std::to_string(key) + " is out of range for sweep " + std::to_string(sweep));
     return s.keys[key];
 }
 
@@ -38,8 +38,8 @@ sd::KeyCorrection correction_from(float angle, const float* values, int32_t mute
 }
 
 void write_values(const sd::KeyCorrectionValue& v, float* values) {
-    const double d[8] = {v.delta_center.x, v.delta_center.y, v.delta_center.z, v.delta_rotation.x,
-                         v.delta_rotation.y, v.delta_rotation.z, v.scale_a, v.scale_b};
+    const double d[8] = {v.delta_center.x,   v.delta_center.y,   v.delta_center.z, v.delta_rotation.x,
+                         v.delta_rotation.y, v.delta_rotation.z, v.scale_a,        v.scale_b};
     for (int i = 0; i < 8; ++i) values[i] = static_cast<float>(d[i]);
 }
 
@@ -57,8 +57,7 @@ void write_correction(const sd::KeyCorrection& c, int i, float* angles, float* v
 }
 
 std::vector<sd::CorrectionRecord> records_from(int32_t count, const int32_t* sweeps, const int32_t* keys,
-                                               const float* angles, const float* values,
-                                               const int32_t* muted) {
+                                               const float* angles, const float* values, const int32_t* muted) {
     SD_REQUIRE(count >= 0 && count <= 10'000'000, "count is out of range");
     SD_REQUIRE(count == 0 || (sweeps && keys && angles && values), "a correction array is NULL");
     std::vector<sd::CorrectionRecord> records(count);
@@ -88,8 +87,8 @@ sd::SkeletonPose pose_of(const sd::Rig& rig, int32_t bone_count, const float* po
 
 extern "C" {
 
-sd_status sd_rig_key_joint(const sd_rig* rig, int32_t sweep, int32_t key, int32_t* parent_bone,
-                           int32_t* child_bone, float* rest_angle) {
+sd_status sd_rig_key_joint(const sd_rig* rig, int32_t sweep, int32_t key, int32_t* parent_bone, int32_t* child_bone,
+                           float* rest_angle) {
     return guarded(__func__, [&] {
         key_of(rig, sweep, key);
         const sd::KeyJoint& j = rig->rig.sweeps[sweep].joints[key];
@@ -100,8 +99,8 @@ sd_status sd_rig_key_joint(const sd_rig* rig, int32_t sweep, int32_t key, int32_
     });
 }
 
-sd_status sd_rig_key_joint_angle(const sd_rig* rig, int32_t sweep, int32_t key, int32_t bone_count,
-                                 const float* pose, float* out_angle) {
+sd_status sd_rig_key_joint_angle(const sd_rig* rig, int32_t sweep, int32_t key, int32_t bone_count, const float* pose,
+                                 float* out_angle) {
     return guarded(__func__, [&] {
         key_of(rig, sweep, key);
         SD_REQUIRE(out_angle, "out_angle is NULL");
@@ -111,8 +110,8 @@ sd_status sd_rig_key_joint_angle(const sd_rig* rig, int32_t sweep, int32_t key, 
     });
 }
 
-sd_status sd_rig_set_key_correction(sd_rig* rig, int32_t sweep, int32_t key, float angle,
-                                    const float* values, int32_t muted, int32_t* out_index) {
+sd_status sd_rig_set_key_correction(sd_rig* rig, int32_t sweep, int32_t key, float angle, const float* values,
+                                    int32_t muted, int32_t* out_index) {
     return guarded(__func__, [&] {
         const sd::KeyEllipse& e = key_of(rig, sweep, key);
         const sd::KeyCorrection c = correction_from(angle, values, muted);
@@ -147,8 +146,7 @@ sd_status sd_rig_remove_key_correction(sd_rig* rig, int32_t sweep, int32_t key, 
     });
 }
 
-sd_status sd_rig_mute_key_correction(sd_rig* rig, int32_t sweep, int32_t key, int32_t index,
-                                     int32_t muted) {
+sd_status sd_rig_mute_key_correction(sd_rig* rig, int32_t sweep, int32_t key, int32_t index, int32_t muted) {
     return guarded(__func__, [&] {
         const sd::KeyEllipse& e = key_of(rig, sweep, key);
         SD_REQUIRE(index >= 0 && index < static_cast<int32_t>(e.corrections.size()),
@@ -169,8 +167,8 @@ int32_t sd_rig_key_correction_count(const sd_rig* rig, int32_t sweep, int32_t ke
     return count;
 }
 
-sd_status sd_rig_get_key_corrections(const sd_rig* rig, int32_t sweep, int32_t key, int32_t count,
-                                     float* angles, float* values, int32_t* muted) {
+sd_status sd_rig_get_key_corrections(const sd_rig* rig, int32_t sweep, int32_t key, int32_t count, float* angles,
+                                     float* values, int32_t* muted) {
     return guarded(__func__, [&] {
         const sd::KeyEllipse& e = key_of(rig, sweep, key);
         if (count != static_cast<int32_t>(e.corrections.size()))
@@ -181,14 +179,12 @@ sd_status sd_rig_get_key_corrections(const sd_rig* rig, int32_t sweep, int32_t k
     });
 }
 
-sd_status sd_rig_key_correction_at(const sd_rig* rig, int32_t sweep, int32_t key, float angle,
-                                   float* values) {
+sd_status sd_rig_key_correction_at(const sd_rig* rig, int32_t sweep, int32_t key, float angle, float* values) {
     return guarded(__func__, [&] {
         const sd::KeyEllipse& e = key_of(rig, sweep, key);
         SD_REQUIRE(values, "values is NULL");
         SD_REQUIRE(std::isfinite(angle), "angle is not finite");
-        write_values(sd::correction_at(e.corrections, rig->rig.sweeps[sweep].joints[key].rest_angle, angle),
-                     values);
+        write_values(sd::correction_at(e.corrections, rig->rig.sweeps[sweep].joints[key].rest_angle, angle), values);
         return SD_OK;
     });
 }
@@ -201,8 +197,8 @@ int32_t sd_rig_correction_count(const sd_rig* rig) {
     return n;
 }
 
-sd_status sd_rig_get_corrections(const sd_rig* rig, int32_t count, int32_t* sweeps, int32_t* keys,
-                                 float* angles, float* values, int32_t* muted) {
+sd_status sd_rig_get_corrections(const sd_rig* rig, int32_t count, int32_t* sweeps, int32_t* keys, float* angles,
+                                 float* values, int32_t* muted) {
     return guarded(__func__, [&] {
         SD_REQUIRE(rig, "rig is NULL");
         const std::vector<sd::CorrectionRecord> all = rig->rig.corrections();
@@ -227,9 +223,8 @@ sd_status sd_rig_set_corrections(sd_rig* rig, int32_t count, const int32_t* swee
     });
 }
 
-sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone_count, const float* pose,
-                           int32_t corrected, int32_t key_count, float* centers, float* orientations,
-                           float* half_axes, float* angles) {
+sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone_count, const float* pose, int32_t corrected,
+                           int32_t key_count, float* centers, float* orientations, float* half_axes, float* angles) {
     return guarded(__func__, [&] {
         const sd::Sweep& s = sweep_of(rig, sweep);
         if (key_count != s.key_count())
@@ -262,9 +257,9 @@ sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone_count,
     });
 }
 
-sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t bone_count,
-                                      const float* pose, int32_t count, const float* u, float* centers,
-                                      float* rotations, float* half_axes) {
+sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t bone_count, const float* pose,
+                                      int32_t count, const float* u, float* centers, float* rotations,
+                                      float* half_axes) {
     return guarded(__func__, [&] {
         const sd::Sweep& s = sweep_of(rig, sweep);
         SD_REQUIRE(count >= 0 && count <= 100'000'000, "count is out of range");
@@ -297,9 +292,8 @@ sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t 
     });
 }
 
-sd_status sd_deformer_set_rig_corrections(sd_deformer* d, int32_t count, const int32_t* sweeps,
-                                          const int32_t* keys, const float* angles, const float* values,
-                                          const int32_t* muted) {
+sd_status sd_deformer_set_rig_corrections(sd_deformer* d, int32_t count, const int32_t* sweeps, const int32_t* keys,
+                                          const float* angles, const float* values, const int32_t* muted) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d, "deformer is NULL");
         d->deformer->set_corrections(records_from(count, sweeps, keys, angles, values, muted));

@@ -34,9 +34,9 @@ sd_status sd_measure_volume(int32_t vertex_count, const float* positions, int32_
     });
 }
 
-sd_status sd_measure_intersections(int32_t vertex_count, const float* positions,
-                                   int32_t triangle_count, const int32_t* triangles,
-                                   int32_t subset_count, const int32_t* subset, int64_t* out_pairs) {
+sd_status sd_measure_intersections(int32_t vertex_count, const float* positions, int32_t triangle_count,
+                                   const int32_t* triangles, int32_t subset_count, const int32_t* subset,
+                                   int64_t* out_pairs) {
     return guarded(__func__, [&] {
         check_mesh(vertex_count, positions, triangle_count, triangles);
         SD_REQUIRE(out_pairs, "out_pairs is NULL");
@@ -49,9 +49,8 @@ sd_status sd_measure_intersections(int32_t vertex_count, const float* positions,
     });
 }
 
-sd_status sd_measure_cross_sections(int32_t vertex_count, const float* positions,
-                                    int32_t triangle_count, const int32_t* triangles,
-                                    int32_t count, const float* points, const float* normals,
+sd_status sd_measure_cross_sections(int32_t vertex_count, const float* positions, int32_t triangle_count,
+                                    const int32_t* triangles, int32_t count, const float* points, const float* normals,
                                     float reach, double* out_areas) {
     return guarded(__func__, [&] {
         check_mesh(vertex_count, positions, triangle_count, triangles);
@@ -66,8 +65,8 @@ sd_status sd_measure_cross_sections(int32_t vertex_count, const float* positions
                            std::isfinite(glm::length(n[i])),
                        "plane " + std::to_string(i) + " is not finite or has a zero normal");
         }
-        const auto areas = sd::measure::cross_section_areas(vertex_count, positions, triangle_count,
-                                                            triangles, p, n, reach);
+        const auto areas =
+            sd::measure::cross_section_areas(vertex_count, positions, triangle_count, triangles, p, n, reach);
         for (int i = 0; i < count; ++i) out_areas[i] = areas[i];
         return SD_OK;
     });

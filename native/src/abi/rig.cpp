@@ -19,8 +19,8 @@ using sd::abi::sweep_of;
 using sd::abi::write_blob;
 
 std::vector<sd::KeyEllipse> keys_from_arrays(int32_t K, const float* centers, const float* orientations,
-                                             const float* half_axes, const int32_t* bones,
-                                             const int32_t* joint_parents, const float* fractions) {
+                                             const float* half_axes, const int32_t* bones, const int32_t* joint_parents,
+                                             const float* fractions) {
     SD_REQUIRE(K >= 2 && K <= 256, "key_count must be in 2..256");
     SD_REQUIRE(centers && orientations && half_axes && bones && joint_parents && fractions,
                "a key ellipse array is NULL");
@@ -28,14 +28,13 @@ std::vector<sd::KeyEllipse> keys_from_arrays(int32_t K, const float* centers, co
     for (int k = 0; k < K; ++k) {
         sd::KeyEllipse& e = keys[k];
         e.center = sd::dvec3(centers[3 * k], centers[3 * k + 1], centers[3 * k + 2]);
-        e.orientation = sd::dquat(orientations[4 * k], orientations[4 * k + 1],
-                                  orientations[4 * k + 2], orientations[4 * k + 3]);
+        e.orientation =
+            sd::dquat(orientations[4 * k], orientations[4 * k + 1], orientations[4 * k + 2], orientations[4 * k + 3]);
         // Float input is unit only to ~1e-7: accept |q| within 1e-3 of 1, then normalise.
         const double qn = std::sqrt(glm::dot(e.orientation, e.orientation));
         if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-3)
             throw sd::InvalidInput("key ellipse " + std::to_string(k) +
-                                   ": orientation is not a unit quaternion (|q| = " +
-                                   std::to_string(qn) + ")");
+                                   ": orientation is not a unit quaternion (|q| = " + std::to_string(qn) + ")");
         e.orientation /= qn;
         e.a = half_axes[2 * k];
         e.b = half_axes[2 * k + 1];
@@ -51,8 +50,8 @@ std::vector<sd::KeyEllipse> keys_from_arrays(int32_t K, const float* centers, co
 
 extern "C" {
 
-sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest,
-                        const float* heads, const float* tails, sd_rig** out_rig) {
+sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest, const float* heads,
+                        const float* tails, sd_rig** out_rig) {
     return guarded(__func__, [&] {
         SD_REQUIRE(out_rig, "out_rig is NULL");
         auto rig = std::make_unique<sd_rig>();
@@ -72,23 +71,20 @@ sd_status sd_rig_clone(const sd_rig* rig, sd_rig** out_rig) {
     });
 }
 
-sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers,
-                           const float* orientations, const float* half_axes,
-                           const int32_t* bones, const int32_t* joint_parents,
+sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers, const float* orientations,
+                           const float* half_axes, const int32_t* bones, const int32_t* joint_parents,
                            const float* fractions, int32_t* out_sweep_index) {
     return guarded(__func__, [&] {
         SD_REQUIRE(rig, "rig is NULL");
-        const int index = rig->rig.add_sweep(keys_from_arrays(
-            key_count, centers, orientations, half_axes, bones, joint_parents, fractions));
+        const int index = rig->rig.add_sweep(
+            keys_from_arrays(key_count, centers, orientations, half_axes, bones, joint_parents, fractions));
         if (out_sweep_index) *out_sweep_index = index;
         return SD_OK;
     });
 }
 
 int32_t sd_rig_bone_count(const sd_rig* rig) { return rig ? rig->rig.skeleton.bone_count() : -1; }
-int32_t sd_rig_sweep_count(const sd_rig* rig) {
-    return rig ? static_cast<int32_t>(rig->rig.sweeps.size()) : -1;
-}
+int32_t sd_rig_sweep_count(const sd_rig* rig) { return rig ? static_cast<int32_t>(rig->rig.sweeps.size()) : -1; }
 
 int32_t sd_rig_key_count(const sd_rig* rig, int32_t sweep) {
     int32_t count = -1;
@@ -99,9 +95,8 @@ int32_t sd_rig_key_count(const sd_rig* rig, int32_t sweep) {
     return count;
 }
 
-sd_status sd_rig_get_keys(const sd_rig* rig, int32_t sweep, float* centers, float* orientations,
-                          float* half_axes, int32_t* bones, int32_t* joint_parents,
-                          float* fractions) {
+sd_status sd_rig_get_keys(const sd_rig* rig, int32_t sweep, float* centers, float* orientations, float* half_axes,
+                          int32_t* bones, int32_t* joint_parents, float* fractions) {
     return guarded(__func__, [&] {
         const sd::Sweep& s = sweep_of(rig, sweep);
         for (int k = 0; k < s.key_count(); ++k) {
@@ -135,9 +130,8 @@ sd_status sd_rig_sweep_rest_volume(const sd_rig* rig, int32_t sweep, double* out
     });
 }
 
-sd_status sd_rig_evaluate_sweep(const sd_rig* rig, int32_t sweep, int32_t count, const float* u,
-                                float* centers, float* tangents, float* normals, float* rotations,
-                                float* half_axes) {
+sd_status sd_rig_evaluate_sweep(const sd_rig* rig, int32_t sweep, int32_t count, const float* u, float* centers,
+                                float* tangents, float* normals, float* rotations, float* half_axes) {
     return guarded(__func__, [&] {
         const sd::Sweep& s = sweep_of(rig, sweep);
         SD_REQUIRE(count >= 0 && count <= 100'000'000, "count is out of range");
@@ -176,14 +170,17 @@ sd_status sd_rig_serialize(const sd_rig* rig, uint8_t* buffer, int64_t capacity,
 }
 
 sd_status sd_rig_deserialize(const uint8_t* buffer, int64_t size, sd_rig** out_rig) {
-    return guarded(__func__, [&] {
-        SD_REQUIRE(out_rig, "out_rig is NULL");
-        if (size < 0) throw sd::CorruptData("negative blob size");
-        auto rig = std::make_unique<sd_rig>();
-        rig->rig = sd::deserialize_rig(buffer, static_cast<size_t>(size));
-        *out_rig = rig.release();
-        return SD_OK;
-    }, SD_ERR_CORRUPT_DATA);
+    return guarded(
+        __func__,
+        [&] {
+            SD_REQUIRE(out_rig, "out_rig is NULL");
+            if (size < 0) throw sd::CorruptData("negative blob size");
+            auto rig = std::make_unique<sd_rig>();
+            rig->rig = sd::deserialize_rig(buffer, static_cast<size_t>(size));
+            *out_rig = rig.release();
+            return SD_OK;
+        },
+        SD_ERR_CORRUPT_DATA);
 }
 
 }  // extern "C"

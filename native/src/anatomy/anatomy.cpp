@@ -29,8 +29,7 @@ double ms_since(Clock::time_point t) { return std::chrono::duration<double, std:
 
 }  // namespace
 
-Anatomy::Anatomy(const Rig& rig, const Binding& binding, const int32_t* triangles, int triangle_count)
-    : rig_(rig) {
+Anatomy::Anatomy(const Rig& rig, const Binding& binding, const int32_t* triangles, int triangle_count) : rig_(rig) {
     binding.check_structure();
     binding.check_against(rig_);
     rest_ = binding.rest_positions;
@@ -69,7 +68,8 @@ void Anatomy::rebuild_collision_set() {
         if (!joints_[j].settings.folding) continue;
         for (int32_t t : region_triangles_[j]) {
             const int32_t* tv = mesh_.triangle(t);
-            const dvec3 c = (point(rest_.data(), tv[0]) + point(rest_.data(), tv[1]) + point(rest_.data(), tv[2])) / 3.0;
+            const dvec3 c =
+                (point(rest_.data(), tv[0]) + point(rest_.data(), tv[1]) + point(rest_.data(), tv[2])) / 3.0;
             const double d = glm::length(c - joints_[j].center) / joints_[j].region_radius;
             if (triangle_joint_[t] < 0) collision_set_.push_back(t);
             if (d < best[t]) {
@@ -129,7 +129,8 @@ void Anatomy::effects_change(const std::vector<JointPose>& jp, std::vector<doubl
             triangle_stamp_[tri] = stamp_;
             const int32_t* tv = mesh_.triangle(tri);
             const float* before[3];
-            for (int k = 0; k < 3; ++k) before[k] = edits_.moved(tv[k]) ? edits_.before(tv[k]) : p + 3 * static_cast<size_t>(tv[k]);
+            for (int k = 0; k < 3; ++k)
+                before[k] = edits_.moved(tv[k]) ? edits_.before(tv[k]) : p + 3 * static_cast<size_t>(tv[k]);
             const double dv = signed_volume(p + 3 * static_cast<size_t>(tv[0]), p + 3 * static_cast<size_t>(tv[1]),
                                             p + 3 * static_cast<size_t>(tv[2]), o) -
                               signed_volume(before[0], before[1], before[2], o);
@@ -156,8 +157,8 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
     for (const MuscleBulge& m : muscles_) {
         const Joint& J = joints_[m.spec().joint];
         if (!J.settings.bulge) continue;
-        stats_.max_bulge = std::max(stats_.max_bulge, m.apply(rig_, pose, jp[m.spec().joint].flexion,
-                                                              J.settings.bulge_strength, p, edits_));
+        stats_.max_bulge = std::max(
+            stats_.max_bulge, m.apply(rig_, pose, jp[m.spec().joint].flexion, J.settings.bulge_strength, p, edits_));
     }
     stats_.bulge_vertices = static_cast<int>(edits_.list().size());
     stats_.ms_bulge += ms_since(t);
@@ -178,8 +179,8 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
         if (sources.empty()) continue;
         stats_.max_protrusion = std::max(stats_.max_protrusion, largest);
         stats_.protrusion_vertices += static_cast<int>(sources.size());
-        stats_.falloff_vertices += falloff_.apply(mesh_, sources, deltas, protrusion_falloff(j), nullptr, nullptr,
-                                                  p, edits_, j);
+        stats_.falloff_vertices +=
+            falloff_.apply(mesh_, sources, deltas, protrusion_falloff(j), nullptr, nullptr, p, edits_, j);
     }
     stats_.ms_protrusion += ms_since(t);
 
@@ -232,27 +233,27 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
     };
     const auto fold_until_clean = [&]() {
         for (int pass = 0; !pairs_.empty() && pass < folding_iterations_; ++pass) {
-        t = Clock::now();
-        moved_.clear();
-        // Contacts between parts fold against bisecting planes (the first passes); skin that
-        // crumpled within one part, and whatever the planes leave, is relaxed.
-        single_part_.clear();
-        if (pass < kPlanePasses) {
-            const FoldingStats fs = folding_.fold(mesh_, parts_, pairs_, reference, triangle_joint_, params, p,
-                                                  edits_, falloff_, &moved_, &single_part_);
-            stats_.folding_regions += fs.regions;
-            stats_.folding_vertices += fs.pulled;
-            stats_.falloff_vertices += fs.falloff;
-            stats_.max_fold_depth = std::max(stats_.max_fold_depth, fs.max_depth);
-        } else {
-            single_part_ = pairs_;
-        }
-        if (!single_part_.empty())
-            stats_.relaxed_vertices += folding_.relax(mesh_, parts_, single_part_, relax_radius_, kRelaxPasses, p,
-                                                      edits_, triangle_joint_, &moved_);
-        ++stats_.folding_iterations;
-        stats_.ms_folding += ms_since(t);
-        detect_changed();
+            t = Clock::now();
+            moved_.clear();
+            // Contacts between parts fold against bisecting planes (the first passes); skin that
+            // crumpled within one part, and whatever the planes leave, is relaxed.
+            single_part_.clear();
+            if (pass < kPlanePasses) {
+                const FoldingStats fs = folding_.fold(mesh_, parts_, pairs_, reference, triangle_joint_, params, p,
+                                                      edits_, falloff_, &moved_, &single_part_);
+                stats_.folding_regions += fs.regions;
+                stats_.folding_vertices += fs.pulled;
+                stats_.falloff_vertices += fs.falloff;
+                stats_.max_fold_depth = std::max(stats_.max_fold_depth, fs.max_depth);
+            } else {
+                single_part_ = pairs_;
+            }
+            if (!single_part_.empty())
+                stats_.relaxed_vertices += folding_.relax(mesh_, parts_, single_part_, relax_radius_, kRelaxPasses, p,
+                                                          edits_, triangle_joint_, &moved_);
+            ++stats_.folding_iterations;
+            stats_.ms_folding += ms_since(t);
+            detect_changed();
         }
     };
     fold_until_clean();

@@ -26,8 +26,12 @@ int Anatomy::add_joint(int lower_bone, JointKind kind, const dvec3* flexion_dire
         joints_.pop_back();
         region_triangles_.pop_back();
         region_edge_.pop_back();
-        proxies_.erase(std::remove_if(proxies_.begin(), proxies_.end(), [&](const BoneProxy& p) { return p.joint() == j; }), proxies_.end());
-        muscles_.erase(std::remove_if(muscles_.begin(), muscles_.end(), [&](const MuscleBulge& m) { return m.spec().joint == j; }), muscles_.end());
+        proxies_.erase(
+            std::remove_if(proxies_.begin(), proxies_.end(), [&](const BoneProxy& p) { return p.joint() == j; }),
+            proxies_.end());
+        muscles_.erase(
+            std::remove_if(muscles_.begin(), muscles_.end(), [&](const MuscleBulge& m) { return m.spec().joint == j; }),
+            muscles_.end());
         throw;
     }
     if (kind != JointKind::Generic) {
@@ -133,7 +137,8 @@ void Anatomy::add_automatic_effects(int j) {
         bool inside = false;
         for (int32_t v : candidates) {
             const dvec3 x = glm::transpose(axes) * (point(rest_.data(), v) - center);
-            if ((x.x / semi.x) * (x.x / semi.x) + (x.y / semi.y) * (x.y / semi.y) + (x.z / semi.z) * (x.z / semi.z) < 1.1025) {
+            if ((x.x / semi.x) * (x.x / semi.x) + (x.y / semi.y) * (x.y / semi.y) + (x.z / semi.z) * (x.z / semi.z) <
+                1.1025) {
                 inside = true;
                 break;
             }
@@ -148,7 +153,8 @@ void Anatomy::add_automatic_effects(int j) {
     // In extension the olecranon sits in its fossa behind the humerus and the patella rests
     // on the femur above the groove, both under thick soft tissue; in flexion they come out
     // under thin skin: the proxy moves out along the extensor side as the joint flexes.
-    proxy.set_emergence(e * ((elbow ? 0.3 : 0.45) * r_e), std::max(0.3, glm::radians(elbow ? 135.0 : 110.0) - J.rest_bend));
+    proxy.set_emergence(e * ((elbow ? 0.3 : 0.45) * r_e),
+                        std::max(0.3, glm::radians(elbow ? 135.0 : 110.0) - J.rest_bend));
     proxies_.push_back(std::move(proxy));
 
     // ---- the muscle: biceps on the front of the upper arm, calf on the back of the shin.
@@ -191,7 +197,8 @@ void Anatomy::set_joint_settings(int j, const JointSettings& s) {
     if (j < 0 || j >= joint_count()) throw InvalidInput("joint " + std::to_string(j) + " is out of range");
     const auto check = [](double v, double lo, double hi, const char* what) {
         if (!(v >= lo && v <= hi) || !std::isfinite(v))
-            throw InvalidInput(std::string(what) + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+            throw InvalidInput(std::string(what) + " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) +
+                               "]");
     };
     check(s.protrusion_strength, 0.0, 2.0, "protrusion strength");
     check(s.bulge_strength, 0.0, 1.0, "bulge strength");
@@ -223,8 +230,8 @@ void Anatomy::set_joint_proxy(int j, ProxyShape shape, double fraction) {
     BoneProxy proxy(j, fraction, std::move(shape), "user");
     proxy.set_anchor(J.center);
     std::vector<int32_t> candidates;
-    const double reach = glm::length(proxy.center() - J.center) + proxy.bound() +
-                         1.5 * std::max(J.key_ellipse.a, J.key_ellipse.b);
+    const double reach =
+        glm::length(proxy.center() - J.center) + proxy.bound() + 1.5 * std::max(J.key_ellipse.a, J.key_ellipse.b);
     for (int v = 0; v < mesh_.vertex_count; ++v)
         if (glm::length(point(rest_.data(), v) - J.center) < reach) candidates.push_back(v);
     proxy.set_candidates(std::move(candidates));
@@ -237,8 +244,8 @@ FoldingParams Anatomy::folding_params(int j) const {
     const Joint& J = joints_[j];
     FoldingParams p;
     const double minor = std::min(J.key_ellipse.a, J.key_ellipse.b);
-    p.margin = J.settings.folding_margin > 0.0 ? J.settings.folding_margin
-                                               : std::min(0.05 * region_edge_[j], 0.01 * minor);
+    p.margin =
+        J.settings.folding_margin > 0.0 ? J.settings.folding_margin : std::min(0.05 * region_edge_[j], 0.01 * minor);
     p.falloff_radius = J.settings.folding_falloff > 0.0 ? J.settings.folding_falloff : 0.5 * minor;
     // Bent limbs press one link's skin deep into the other's: bisecting planes. Around the
     // generic joints (armpit, groin, neck) contacts are shallow and mostly skin crumpling

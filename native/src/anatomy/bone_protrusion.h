@@ -84,8 +84,8 @@ public:
     /// displacement (world space) that brings it there, times `strength`. Appends to
     /// sources/deltas.
     /// @return the largest displacement length
-    double push(const dmat4& transform, const float* positions, double strength,
-                std::vector<int32_t>& sources, std::vector<dvec3>& deltas) const;
+    double push(const dmat4& transform, const float* positions, double strength, std::vector<int32_t>& sources,
+                std::vector<dvec3>& deltas) const;
 
 private:
     int joint_;

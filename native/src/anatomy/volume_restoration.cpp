@@ -42,7 +42,8 @@ void Anatomy::build_restore_zone(int j) {
     for (int t = 0; t < mesh_.triangle_count(); ++t) {
         const int32_t* tv = mesh_.triangle(t);
         const dvec3 a = glm::cross(point(rest_.data(), tv[1]) - point(rest_.data(), tv[0]),
-                                   point(rest_.data(), tv[2]) - point(rest_.data(), tv[0])) / 6.0;
+                                   point(rest_.data(), tv[2]) - point(rest_.data(), tv[0])) /
+                        6.0;
         for (int k = 0; k < 3; ++k) area[tv[k]] += a;
     }
     for (int v = 0; v < mesh_.vertex_count; ++v) {
@@ -52,7 +53,8 @@ void Anatomy::build_restore_zone(int j) {
         const float* l = &parts_.local[3 * static_cast<size_t>(v)];
         const double radius = std::hypot(l[0], l[1]);
         if (!(radius > 0.0)) continue;
-        const dvec3 radial = s.rest_geometry.rotation(parts_.span[v], parts_.u[v]) * dvec3(l[0] / radius, l[1] / radius, 0.0);
+        const dvec3 radial =
+            s.rest_geometry.rotation(parts_.span[v], parts_.u[v]) * dvec3(l[0] / radius, l[1] / radius, 0.0);
         // Smooth in the distance from the joint; around the limb on the extensor half only,
         // growing towards the back: away from the crease, so it makes no new contact there.
         const double q = d / R;
@@ -126,7 +128,8 @@ void Anatomy::zone_directions(int s, const SkeletonPose& pose) {
     const SweepGeometry g(zone_centers_, zone_rotations_);
     zone_radial_.resize(z.vertex.size());
     for (size_t i = 0; i < z.vertex.size(); ++i)
-        zone_radial_[i] = rotate_unnormalized(g.raw_rotation(z.span[i], z.u[i]), dvec3(z.dir[2 * i], z.dir[2 * i + 1], 0.0));
+        zone_radial_[i] =
+            rotate_unnormalized(g.raw_rotation(z.span[i], z.u[i]), dvec3(z.dir[2 * i], z.dir[2 * i + 1], 0.0));
 }
 
 void Anatomy::push_zone(const RestoreZone& z, double height, float* p, std::vector<int32_t>* moved) {

@@ -24,8 +24,7 @@ std::vector<PlaneSample> sample_planes(const Sweep& s) {
 
 namespace {
 
-SweepInfluence local_coordinates(const Sweep& s, int sweep_index, int span, double u,
-                                 const dvec3& v) {
+SweepInfluence local_coordinates(const Sweep& s, int sweep_index, int span, double u, const dvec3& v) {
     const dmat3 r = s.rest_geometry.rotation(span, u);
     const dvec3 local = glm::transpose(r) * (v - s.rest_geometry.center(span, u));
     const dvec2 ab = s.rest_half_axes.at(span, u);
@@ -56,8 +55,7 @@ void t_to_span(const Sweep& s, double t, int* span, double* u) {
 
 }  // namespace
 
-SweepInfluence bind_to_sweep(const Sweep& s, int sweep_index,
-                             const std::vector<PlaneSample>& planes, const dvec3& v) {
+SweepInfluence bind_to_sweep(const Sweep& s, int sweep_index, const std::vector<PlaneSample>& planes, const dvec3& v) {
     // Candidates: every pair of consecutive planes that encloses V, plus the two ends
     // (vertices beyond an end plane stay with the end ellipse). Far from the axis several
     // planes may enclose V; the binding nearest to the axis is the right one.
@@ -92,13 +90,11 @@ SweepInfluence bind_to_sweep(const Sweep& s, int sweep_index,
     return local_coordinates(s, sweep_index, best_span, best_u, v);
 }
 
-Binding bind_vertices(const Rig& rig, int V, const float* positions, int S,
-                      const int32_t* sweep_ids, const float* sweep_weights, int K,
-                      const int32_t* bone_ids, const float* bone_weights) {
+Binding bind_vertices(const Rig& rig, int V, const float* positions, int S, const int32_t* sweep_ids,
+                      const float* sweep_weights, int K, const int32_t* bone_ids, const float* bone_weights) {
     if (V < 1 || V > 50'000'000) throw InvalidInput("vertex count must be in 1..5e7");
     if (!positions) throw InvalidInput("positions is NULL");
-    if (S < 0 || S > 16 || K < 0 || K > 64)
-        throw InvalidInput("sweep slots must be in 0..16 and bone slots in 0..64");
+    if (S < 0 || S > 16 || K < 0 || K > 64) throw InvalidInput("sweep slots must be in 0..16 and bone slots in 0..64");
     if (S > 0 && (!sweep_ids || !sweep_weights)) throw InvalidInput("sweep ids/weights are NULL");
     if (K > 0 && (!bone_ids || !bone_weights)) throw InvalidInput("bone ids/weights are NULL");
     const int sweep_count = static_cast<int>(rig.sweeps.size());
@@ -176,8 +172,7 @@ void Binding::check_structure() const {
             if (o[i] < o[i - 1]) return false;
         return true;
     };
-    if (!rows_ok(sweep_offsets, sweep_influences.size()) ||
-        !rows_ok(bone_offsets, bone_influences.size()))
+    if (!rows_ok(sweep_offsets, sweep_influences.size()) || !rows_ok(bone_offsets, bone_influences.size()))
         throw CorruptData("binding rows are not consistent");
     for (const SweepInfluence& s : sweep_influences) {
         bool ok = std::isfinite(s.u) && s.u >= 0.0f && s.u <= 1.0f && std::isfinite(s.weight) &&
@@ -193,8 +188,9 @@ void Binding::check_against(const Rig& rig) const {
     for (const SweepInfluence& s : sweep_influences)
         if (s.sweep < 0 || s.sweep >= static_cast<int>(rig.sweeps.size()) || s.span < 0 ||
             s.span >= rig.sweeps[s.sweep].span_count())
-            throw InvalidInput("the binding refers to a sweep or span the rig does not have; "
-                               "re-bind");
+            throw InvalidInput(
+                "the binding refers to a sweep or span the rig does not have; "
+                "re-bind");
     for (const BoneInfluence& b : bone_influences)
         if (b.bone < 0 || b.bone >= rig.skeleton.bone_count())
             throw InvalidInput("the binding refers to a bone the rig does not have; re-bind");

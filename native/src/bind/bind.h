@@ -17,8 +17,8 @@ namespace sd {
 
 struct SweepInfluence {
     int32_t sweep = 0;
-    int32_t span = 0;   ///< between keys span and span+1
-    float u = 0;        ///< in [0, 1] along the span
+    int32_t span = 0;  ///< between keys span and span+1
+    float u = 0;       ///< in [0, 1] along the span
     float weight = 0;
     float local[3] = {0, 0, 0};  ///< R^T (V - C) at rest: a_V cos θ, b_V sin θ, c_V
     float cos_theta = 1, sin_theta = 0;
@@ -32,7 +32,7 @@ struct BoneInfluence {
 /// Per-vertex influences in compressed rows: vertex v owns
 /// sweep_influences[sweep_offsets[v] .. sweep_offsets[v+1]) and likewise for bones.
 struct Binding {
-    std::vector<float> rest_positions;  ///< #V*3
+    std::vector<float> rest_positions;                  ///< #V*3
     std::vector<uint32_t> sweep_offsets, bone_offsets;  ///< #V+1 each
     std::vector<SweepInfluence> sweep_influences;
     std::vector<BoneInfluence> bone_influences;
@@ -61,13 +61,13 @@ std::vector<PlaneSample> sample_planes(const Sweep& sweep);
 
 /// Binds one vertex to one sweep at rest: its (span, u) and local coordinates.
 /// @param planes  sample_planes(sweep)
-SweepInfluence bind_to_sweep(const Sweep& sweep, int sweep_index,
-                             const std::vector<PlaneSample>& planes, const dvec3& v);
+SweepInfluence bind_to_sweep(const Sweep& sweep, int sweep_index, const std::vector<PlaneSample>& planes,
+                             const dvec3& v);
 
 /// Binds all vertices. Weight arrays are #V*slots with index -1 for unused slots.
 /// @throws InvalidInput (message names the vertex) on bad input.
 Binding bind_vertices(const Rig& rig, int vertex_count, const float* positions, int sweep_slots,
-                      const int32_t* sweep_ids, const float* sweep_weights, int bone_slots,
-                      const int32_t* bone_ids, const float* bone_weights);
+                      const int32_t* sweep_ids, const float* sweep_weights, int bone_slots, const int32_t* bone_ids,
+                      const float* bone_weights);
 
 }  // namespace sd

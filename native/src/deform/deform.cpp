@@ -21,15 +21,13 @@ Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(st
 }
 
 void Deformer::set_volume_preservation(bool enabled, double strength) {
-    if (!(strength >= 0.0 && strength <= 1.0))
-        throw InvalidInput("volume preservation strength must be in [0, 1]");
+    if (!(strength >= 0.0 && strength <= 1.0)) throw InvalidInput("volume preservation strength must be in [0, 1]");
     volume_enabled_ = enabled;
     volume_strength_ = strength;
 }
 
 void Deformer::set_volume_offsets(const std::vector<double>& offsets) {
-    if (offsets.size() != rig_.sweeps.size())
-        throw InvalidInput("one volume offset per sweep is needed");
+    if (offsets.size() != rig_.sweeps.size()) throw InvalidInput("one volume offset per sweep is needed");
     for (size_t s = 0; s < offsets.size(); ++s) {
         // The target V0 - offset must stay a plausible volume: 10 % .. 10x the rest volume.
         const double v0 = rig_.sweeps[s].rest_volume;
@@ -61,8 +59,8 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             double edited = 0.0;
             if (s.has_corrections && (a != s.rest_half_axes.a || b != s.rest_half_axes.b))
                 edited = before - form.volume(s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
-            const double target = before + volume_strength_ * (s.corrected_rest_volume + edited -
-                                                               volume_offsets_[si] - before);
+            const double target =
+                before + volume_strength_ * (s.corrected_rest_volume + edited - volume_offsets_[si] - before);
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
             volume_before[si] = r.before;
             volume_after[si] = r.after;

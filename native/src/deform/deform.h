@@ -41,7 +41,7 @@ private:
 
     Rig rig_;
     Binding binding_;
-    std::vector<int> span_base_;                  // first span of each sweep
+    std::vector<int> span_base_;  // first span of each sweep
     SweepKernel kernel_;
     bool volume_enabled_ = true;
     double volume_strength_ = 1.0;

@@ -13,8 +13,8 @@ std::vector<Affine3x4> bone_affines(const SkeletonPose& pose) {
     return out;
 }
 
-void skin_linear_blend4(const std::vector<Affine3x4>& bones, int V, const float* rest,
-                        const int32_t* joints, const float* weights, float* out) {
+void skin_linear_blend4(const std::vector<Affine3x4>& bones, int V, const float* rest, const int32_t* joints,
+                        const float* weights, float* out) {
     tbb::parallel_for(tbb::blocked_range<int>(0, V, 2048), [&](const tbb::blocked_range<int>& r) {
         for (int v = r.begin(); v != r.end(); ++v) {
             // Blend the matrices first (12 multiply-adds per influence), then apply once:
@@ -27,8 +27,7 @@ void skin_linear_blend4(const std::vector<Affine3x4>& bones, int V, const float*
             }
             const float* p = rest + 3 * v;
             for (int row = 0; row < 3; ++row)
-                out[3 * v + row] = m[4 * row] * p[0] + m[4 * row + 1] * p[1] +
-                                   m[4 * row + 2] * p[2] + m[4 * row + 3];
+                out[3 * v + row] = m[4 * row] * p[0] + m[4 * row + 1] * p[1] + m[4 * row + 2] * p[2] + m[4 * row + 3];
         }
     });
 }

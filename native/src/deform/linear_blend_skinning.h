@@ -13,8 +13,7 @@ namespace sd {
 struct Affine3x4 {
     float m[3][4];
     void apply_add(float w, const float* p, float* out) const {
-        for (int r = 0; r < 3; ++r)
-            out[r] += w * (m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
+        for (int r = 0; r < 3; ++r) out[r] += w * (m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
     }
 };
 
@@ -23,8 +22,7 @@ std::vector<Affine3x4> bone_affines(const SkeletonPose& pose);
 
 /// Reference kernel: out[v] = sum_i w[v,i] M[j[v,i]] rest[v], 4 influences per vertex,
 /// parallel over vertices (TBB). Inputs are trusted (the benchmark's own data).
-void skin_linear_blend4(const std::vector<Affine3x4>& bones, int vertex_count,
-                        const float* rest, const int32_t* joints, const float* weights,
-                        float* out);
+void skin_linear_blend4(const std::vector<Affine3x4>& bones, int vertex_count, const float* rest, const int32_t* joints,
+                        const float* weights, float* out);
 
 }  // namespace sd

@@ -13,12 +13,10 @@ constexpr int32_t kBatch = 2048;
 
 /// w (C(u) + R(u) l) for influences [begin, end) of one half-span. Written as one flat loop
 /// over arrays with loop-invariant coefficients, no branches: it vectorises.
-void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end,
-                    const float* __restrict u_, const float* __restrict w_,
-                    const float* __restrict x_, const float* __restrict y_,
-                    const float* __restrict z_, const float* __restrict cos_,
-                    const float* __restrict sin_, float* __restrict px,
-                    float* __restrict py, float* __restrict pz) {
+void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const float* __restrict u_,
+                    const float* __restrict w_, const float* __restrict x_, const float* __restrict y_,
+                    const float* __restrict z_, const float* __restrict cos_, const float* __restrict sin_,
+                    float* __restrict px, float* __restrict py, float* __restrict pz) {
     const HalfSpanKernel c = k;  // locals: no aliasing with the outputs
     for (int32_t i = begin; i < end; ++i) {
         const float u = u_[i];
@@ -46,8 +44,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base) {
     const auto& inf = b.sweep_influences;
     const size_t n = inf.size();
     std::vector<int32_t> half(n);
-    for (size_t i = 0; i < n; ++i)
-        half[i] = 2 * (span_base[inf[i].sweep] + inf[i].span) + (inf[i].u < 0.5f ? 0 : 1);
+    for (size_t i = 0; i < n; ++i) half[i] = 2 * (span_base[inf[i].sweep] + inf[i].span) + (inf[i].u < 0.5f ? 0 : 1);
     std::vector<uint32_t> order(n);
     std::iota(order.begin(), order.end(), 0u);
     std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t c) { return half[a] < half[c]; });
@@ -77,13 +74,12 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base) {
     for (size_t i = 0; i < n; ++i) rows_[i] = slot_of[i];
 }
 
-void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const Binding& b,
-                      float* out) {
+void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const Binding& b, float* out) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches_.size()), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Batch& bt = batches_[i];
-            evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(),
-                           y_.data(), z_.data(), cos_.data(), sin_.data(), px_.data(), py_.data(), pz_.data());
+            evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(), y_.data(),
+                           z_.data(), cos_.data(), sin_.data(), px_.data(), py_.data(), pz_.data());
         }
     });
     const float* rest = b.rest_positions.data();

@@ -31,17 +31,16 @@ public:
     SweepKernel(const Binding& binding, const std::vector<int>& span_base);
 
     /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v], for every vertex (#V*3).
-    void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const Binding& binding,
-             float* out);
+    void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const Binding& binding, float* out);
 
 private:
     struct Batch {
         int32_t half_span, begin, end;
     };
-    std::vector<Batch> batches_;                      // ranges of one half-span, <= kBatch long
+    std::vector<Batch> batches_;                        // ranges of one half-span, <= kBatch long
     std::vector<float> u_, w_, x_, y_, z_, cos_, sin_;  // influences sorted by half-span
-    std::vector<float> px_, py_, pz_;                 // per-frame weighted contributions
-    std::vector<uint32_t> row_offsets_, rows_;        // vertex -> its sorted influence slots
+    std::vector<float> px_, py_, pz_;                   // per-frame weighted contributions
+    std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
 };
 
 }  // namespace sd

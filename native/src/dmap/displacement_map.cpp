@@ -44,8 +44,8 @@ public:
             for (int i = 0; i < columns; ++i) {
                 const int i1 = (i + 1) % columns;
                 // Corner 0 -> 1 runs along θ (ptex u), corner 0 -> 3 along t (ptex v).
-                indices.insert(indices.end(), {j * columns + i, j * columns + i1, (j + 1) * columns + i1,
-                                               (j + 1) * columns + i});
+                indices.insert(indices.end(),
+                               {j * columns + i, j * columns + i1, (j + 1) * columns + i1, (j + 1) * columns + i});
             }
         osd::TopologyDescriptor desc;
         desc.numVertices = columns * rows;
@@ -155,10 +155,16 @@ dvec3 ellipse_point(const Sweep& s, double t, double theta) {
 dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const dvec3& c, dvec3* bary) {
     const dvec3 ab = b - a, ac = c - a, ap = p - a;
     const double d1 = glm::dot(ab, ap), d2 = glm::dot(ac, ap);
-    if (d1 <= 0.0 && d2 <= 0.0) { *bary = {1, 0, 0}; return a; }
+    if (d1 <= 0.0 && d2 <= 0.0) {
+        *bary = {1, 0, 0};
+        return a;
+    }
     const dvec3 bp = p - b;
     const double d3 = glm::dot(ab, bp), d4 = glm::dot(ac, bp);
-    if (d3 >= 0.0 && d4 <= d3) { *bary = {0, 1, 0}; return b; }
+    if (d3 >= 0.0 && d4 <= d3) {
+        *bary = {0, 1, 0};
+        return b;
+    }
     const double vc = d1 * d4 - d3 * d2;
     if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
         const double v = d1 / (d1 - d3);
@@ -167,7 +173,10 @@ dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const 
     }
     const dvec3 cp = p - c;
     const double d5 = glm::dot(ab, cp), d6 = glm::dot(ac, cp);
-    if (d6 >= 0.0 && d5 <= d6) { *bary = {0, 0, 1}; return c; }
+    if (d6 >= 0.0 && d5 <= d6) {
+        *bary = {0, 0, 1};
+        return c;
+    }
     const double vb = d5 * d2 - d1 * d6;
     if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
         const double w = d2 / (d2 - d6);
@@ -294,13 +303,13 @@ double ClosestPoint::query(const dvec3& p, int* triangle, dvec3* barycentric) co
 
 struct DisplacementMap::Impl {
     uint64_t rig_fingerprint = 0;
-    std::vector<std::unique_ptr<GridSurface>> grids;   // #S
-    std::vector<std::vector<dvec3>> controls;          // #S, control points of d
-    std::vector<DisplacementFitStats> stats;           // #S
-    std::vector<dvec2> range;                          // #S, the grid's t range [lo, hi] (extended)
-    std::vector<dvec2> speeds;                         // #S, end_speeds
+    std::vector<std::unique_ptr<GridSurface>> grids;  // #S
+    std::vector<std::vector<dvec3>> controls;         // #S, control points of d
+    std::vector<DisplacementFitStats> stats;          // #S
+    std::vector<dvec2> range;                         // #S, the grid's t range [lo, hi] (extended)
+    std::vector<dvec2> speeds;                        // #S, end_speeds
     ClosestPoint closest;
-    Binding source;                                    // the fitted mesh's weights
+    Binding source;  // the fitted mesh's weights
 
     /// Grid parameter in [0, 1] of an (extended) t.
     double grid_t(int s, double t) const {
@@ -324,10 +333,8 @@ DisplacementMap& DisplacementMap::operator=(DisplacementMap&&) noexcept = defaul
 
 DisplacementMap DisplacementMap::fit(const Rig& rig, const Binding& binding, int T, const int32_t* triangles,
                                      const DisplacementMapOptions& o) {
-    if (!(o.theta_cells >= 4 && o.theta_cells <= 256))
-        throw InvalidInput("theta_cells must be in 4..256");
-    if (!(o.t_cells_per_span >= 1 && o.t_cells_per_span <= 64))
-        throw InvalidInput("t_cells_per_span must be in 1..64");
+    if (!(o.theta_cells >= 4 && o.theta_cells <= 256)) throw InvalidInput("theta_cells must be in 4..256");
+    if (!(o.t_cells_per_span >= 1 && o.t_cells_per_span <= 64)) throw InvalidInput("t_cells_per_span must be in 1..64");
     if (!(o.smoothing >= 0.0 && o.smoothing <= 1e6)) throw InvalidInput("smoothing must be in [0, 1e6]");
     if (T < 1 || T > 100'000'000 || !triangles) throw InvalidInput("the bound mesh's triangles are missing");
     binding.check_structure();
@@ -365,18 +372,21 @@ DisplacementMap DisplacementMap::fit(const Rig& rig, const Binding& binding, int
     };
     std::vector<std::vector<Sample>> samples(static_cast<size_t>(S));
     for (int v = 0; v < V; ++v)
-        for (uint32_t i = binding.sweep_offsets[static_cast<size_t>(v)]; i < binding.sweep_offsets[static_cast<size_t>(v) + 1]; ++i) {
+        for (uint32_t i = binding.sweep_offsets[static_cast<size_t>(v)];
+             i < binding.sweep_offsets[static_cast<size_t>(v) + 1]; ++i) {
             const SweepInfluence& inf = binding.sweep_influences[i];
             const Sweep& sw = rig.sweeps[static_cast<size_t>(inf.sweep)];
             const double theta = wrap_theta(std::atan2(inf.sin_theta, inf.cos_theta));
-            const double t = std::clamp(extended_t(sw, inf.span, inf.u, inf.local[2], impl.speeds[static_cast<size_t>(inf.sweep)]),
-                                        -kMaxExtension, 1.0 + kMaxExtension);
+            const double t =
+                std::clamp(extended_t(sw, inf.span, inf.u, inf.local[2], impl.speeds[static_cast<size_t>(inf.sweep)]),
+                           -kMaxExtension, 1.0 + kMaxExtension);
             dvec2& range = impl.range[static_cast<size_t>(inf.sweep)];
             range = dvec2(std::min(range.x, t), std::max(range.y, t));
             const dvec3 local(inf.local[0], inf.local[1], inf.local[2]);
             const dvec2 ab = sw.rest_half_axes.at(inf.span, inf.u);
             const dvec3 d = local - dvec3(ab.x * std::cos(theta), ab.y * std::sin(theta), 0.0);
-            samples[static_cast<size_t>(inf.sweep)].push_back({theta, t, static_cast<double>(inf.weight) * inf.weight, d});
+            samples[static_cast<size_t>(inf.sweep)].push_back(
+                {theta, t, static_cast<double>(inf.weight) * inf.weight, d});
         }
 
     tbb::parallel_for(0, S, [&](int s) {
@@ -418,7 +428,8 @@ DisplacementMap DisplacementMap::fit(const Rig& rig, const Binding& binding, int
             for (int j = 0; j < rows; ++j)
                 for (int i = 0; i < columns; ++i) {
                     add_row({{id(i - 1, j), 1.0}, {id(i, j), -2.0}, {id(i + 1, j), 1.0}}, lambda);
-                    if (j >= 1 && j + 1 < rows) add_row({{id(i, j - 1), 1.0}, {id(i, j), -2.0}, {id(i, j + 1), 1.0}}, lambda);
+                    if (j >= 1 && j + 1 < rows)
+                        add_row({{id(i, j - 1), 1.0}, {id(i, j), -2.0}, {id(i, j + 1), 1.0}}, lambda);
                     if (j + 1 < rows)
                         add_row({{id(i, j), 1.0}, {id(i + 1, j), -1.0}, {id(i, j + 1), -1.0}, {id(i + 1, j + 1), 1.0}},
                                 2.0 * lambda);
@@ -551,9 +562,11 @@ Binding DisplacementMap::bind(const Rig& rig, int count, const float* positions,
             SweepInfluence& inf = b.sweep_influences[i];
             const Sweep& s = rig.sweeps[static_cast<size_t>(inf.sweep)];
             const double theta = std::atan2(inf.sin_theta, inf.cos_theta);
-            const double t = extended_t(s, inf.span, inf.u, inf.local[2], impl_->speeds[static_cast<size_t>(inf.sweep)]);
+            const double t =
+                extended_t(s, inf.span, inf.u, inf.local[2], impl_->speeds[static_cast<size_t>(inf.sweep)]);
             const dvec2 ab = s.rest_half_axes.at(inf.span, inf.u);
-            const dvec3 l = dvec3(ab.x * std::cos(theta), ab.y * std::sin(theta), 0.0) + impl_->eval(inf.sweep, theta, t);
+            const dvec3 l =
+                dvec3(ab.x * std::cos(theta), ab.y * std::sin(theta), 0.0) + impl_->eval(inf.sweep, theta, t);
             const dvec3 own(inf.local[0], inf.local[1], inf.local[2]);
             if (glm::length(l - own) > snap * std::min(ab.x, ab.y)) return;
             for (int k = 0; k < 3; ++k) inf.local[k] = static_cast<float>(l[k]);

@@ -40,16 +40,16 @@
 namespace sd {
 
 struct DisplacementMapOptions {
-    int theta_cells = 24;        ///< control points around a sweep (periodic), 4..256
-    int t_cells_per_span = 3;    ///< control intervals along each span, 1..64
-    double smoothing = 1e-3;     ///< bending weight relative to the data term, >= 0
+    int theta_cells = 24;      ///< control points around a sweep (periodic), 4..256
+    int t_cells_per_span = 3;  ///< control intervals along each span, 1..64
+    double smoothing = 1e-3;   ///< bending weight relative to the data term, >= 0
 };
 
 /// Fit residuals of one sweep's map at its own samples (local units).
 struct DisplacementFitStats {
     int samples = 0;
-    int rows = 0, columns = 0;   ///< control grid: rows along t, columns around θ
-    double rms = 0.0, max = 0.0; ///< |d_V - d(θ_V, t_V)|, weighted rms and max
+    int rows = 0, columns = 0;    ///< control grid: rows along t, columns around θ
+    double rms = 0.0, max = 0.0;  ///< |d_V - d(θ_V, t_V)|, weighted rms and max
 };
 
 /// Barycentric closest-point queries on a triangle mesh (a uniform grid of triangles).
@@ -87,8 +87,8 @@ public:
 
     /// Fits the map of a bound mesh. @param triangles #T*3 vertex indices of the bound mesh
     /// (carries the weights to new points). @throws InvalidInput
-    static DisplacementMap fit(const Rig& rig, const Binding& binding, int triangle_count,
-                               const int32_t* triangles, const DisplacementMapOptions& options = {});
+    static DisplacementMap fit(const Rig& rig, const Binding& binding, int triangle_count, const int32_t* triangles,
+                               const DisplacementMapOptions& options = {});
 
     int sweep_count() const;
     const DisplacementFitStats& stats(int sweep) const;
@@ -105,14 +105,13 @@ public:
     /// its own (kExact: all keep theirs; kSurface: all take the map's). The rig must be the
     /// one the map was fitted with. @param snapped if given, the number of sweep influences
     /// that took the map's coordinates, of all. @throws InvalidInput
-    Binding bind(const Rig& rig, int count, const float* positions, double snap = kDefaultSnap,
-                 int* snapped = nullptr, int* influences = nullptr) const;
+    Binding bind(const Rig& rig, int count, const float* positions, double snap = kDefaultSnap, int* snapped = nullptr,
+                 int* influences = nullptr) const;
 
     /// The weights bind() gives the points: per point its sweep and bone influences from the
     /// closest point of the fitted mesh, barycentric, normalised (dense rows, -1 unused).
-    void transfer_weights(int count, const float* positions, int* sweep_slots,
-                          std::vector<int32_t>& sweep_ids, std::vector<float>& sweep_weights,
-                          int* bone_slots, std::vector<int32_t>& bone_ids,
+    void transfer_weights(int count, const float* positions, int* sweep_slots, std::vector<int32_t>& sweep_ids,
+                          std::vector<float>& sweep_weights, int* bone_slots, std::vector<int32_t>& bone_ids,
                           std::vector<float>& bone_weights) const;
 
 private:

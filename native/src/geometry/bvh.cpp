@@ -36,8 +36,8 @@ std::vector<int32_t> edge_neighbours(const MeshTopology& m) {
 
 }  // namespace
 
-void TriangleBvh::build(const MeshTopology& mesh, const std::vector<int32_t>& triangles,
-                        const float* positions, int leaf_size, bool with_cones) {
+void TriangleBvh::build(const MeshTopology& mesh, const std::vector<int32_t>& triangles, const float* positions,
+                        int leaf_size, bool with_cones) {
     nodes_.clear();
     parent_.clear();
     with_cones_ = with_cones;
@@ -95,7 +95,8 @@ void TriangleBvh::build(const MeshTopology& mesh, const std::vector<int32_t>& tr
                 hi[k] = std::max(hi[k], centroid[3 * order[i] + k]);
             }
         const int axis = (hi[0] - lo[0] >= hi[1] - lo[1] && hi[0] - lo[0] >= hi[2] - lo[2])
-                             ? 0 : (hi[1] - lo[1] >= hi[2] - lo[2] ? 1 : 2);
+                             ? 0
+                             : (hi[1] - lo[1] >= hi[2] - lo[2] ? 1 : 2);
         // Components of the set (breadth-first over shared edges within it).
         ++stamp;
         for (int i = task.begin; i < task.end; ++i) mark[order[i]] = stamp;
@@ -132,7 +133,8 @@ void TriangleBvh::build(const MeshTopology& mesh, const std::vector<int32_t>& tr
             int at = task.begin;
             mid = -1;
             for (const auto& [key, c] : keyed) {
-                if (mid < 0 && at > task.begin && at - task.begin + static_cast<int>(components[c].size()) / 2 > half) mid = at;
+                if (mid < 0 && at > task.begin && at - task.begin + static_cast<int>(components[c].size()) / 2 > half)
+                    mid = at;
                 for (int32_t t : components[c]) order[at++] = t;
             }
             if (mid < 0 || mid >= task.end) mid = task.begin + half;  // one dominant component: cut it
@@ -255,9 +257,10 @@ void TriangleBvh::build(const MeshTopology& mesh, const std::vector<int32_t>& tr
     // Descendant ranges, and a cut of the tree into subtrees for the parallel refit.
     descendants_end_.assign(nodes_.size(), 0);
     for (int i = static_cast<int>(nodes_.size()) - 1; i >= 0; --i)
-        descendants_end_[i] = nodes_[i].leaf() ? i + 1
-                                               : std::max({descendants_end_[nodes_[i].first],
-                                                           descendants_end_[nodes_[i].first + 1], i + 1});
+        descendants_end_[i] =
+            nodes_[i].leaf()
+                ? i + 1
+                : std::max({descendants_end_[nodes_[i].first], descendants_end_[nodes_[i].first + 1], i + 1});
     subtree_roots_.assign(1, 0);
     top_nodes_.clear();
     while (subtree_roots_.size() < 64) {
@@ -363,8 +366,8 @@ NormalCone merge(const NormalCone& cl, const NormalCone& cr) {
     // valid while theta + alpha <= pi, i.e. while sin(theta + alpha) >= 0.
     float c = 1.0f;
     for (const NormalCone* child : {&cl, &cr}) {
-        const float ct = std::clamp(child->axis[0] * cone.axis[0] + child->axis[1] * cone.axis[1] +
-                                        child->axis[2] * cone.axis[2], -1.0f, 1.0f);
+        const float ct = std::clamp(
+            child->axis[0] * cone.axis[0] + child->axis[1] * cone.axis[1] + child->axis[2] * cone.axis[2], -1.0f, 1.0f);
         const float st = std::sqrt(std::max(0.0f, 1.0f - ct * ct));
         const float ca = std::clamp(child->cos_half_angle, -1.0f, 1.0f);
         const float sa = std::sqrt(std::max(0.0f, 1.0f - ca * ca));
@@ -448,8 +451,8 @@ void TriangleBvh::refit_slots(const float* positions, const std::vector<int32_t>
     }
 }
 
-bool TriangleBvh::ray_first_hit(const float* p, const double* o, const double* d, double t_max,
-                                double* t_out, int32_t* tri_out, bool farthest) const {
+bool TriangleBvh::ray_first_hit(const float* p, const double* o, const double* d, double t_max, double* t_out,
+                                int32_t* tri_out, bool farthest) const {
     if (nodes_.empty()) return false;
     double best = farthest ? -1.0 : t_max;
     int32_t best_tri = -1;
@@ -494,7 +497,8 @@ bool TriangleBvh::ray_first_hit(const float* p, const double* o, const double* d
             const double sv[3] = {o[0] - a[0], o[1] - a[1], o[2] - a[2]};
             const double u = (sv[0] * q[0] + sv[1] * q[1] + sv[2] * q[2]) * inv_det;
             if (u < 0.0 || u > 1.0) continue;
-            const double r[3] = {sv[1] * e1[2] - sv[2] * e1[1], sv[2] * e1[0] - sv[0] * e1[2], sv[0] * e1[1] - sv[1] * e1[0]};
+            const double r[3] = {sv[1] * e1[2] - sv[2] * e1[1], sv[2] * e1[0] - sv[0] * e1[2],
+                                 sv[0] * e1[1] - sv[1] * e1[0]};
             const double w = (d[0] * r[0] + d[1] * r[1] + d[2] * r[2]) * inv_det;
             if (w < 0.0 || u + w > 1.0) continue;
             const double t = (e2[0] * r[0] + e2[1] * r[1] + e2[2] * r[2]) * inv_det;

@@ -19,8 +19,8 @@ namespace sd::anatomy {
 
 struct BvhNode {
     float lo[3], hi[3];
-    int32_t first = 0;  ///< inner node: left child (right = first + 1); leaf: first slot
-    int32_t count = 0;  ///< leaf: number of triangles (> 0); inner node: 0
+    int32_t first = 0;           ///< inner node: left child (right = first + 1); leaf: first slot
+    int32_t count = 0;           ///< leaf: number of triangles (> 0); inner node: 0
     int32_t begin = 0, end = 0;  ///< the slots below this node
     bool leaf() const { return count > 0; }
 };
@@ -36,8 +36,8 @@ class TriangleBvh {
 public:
     /// @param triangles  ids into mesh.triangles of the triangles to hold (any subset)
     /// @param with_cones also maintain normal cones and the connectivity flags
-    void build(const MeshTopology& mesh, const std::vector<int32_t>& triangles,
-               const float* positions, int leaf_size = 4, bool with_cones = false);
+    void build(const MeshTopology& mesh, const std::vector<int32_t>& triangles, const float* positions,
+               int leaf_size = 4, bool with_cones = false);
 
     /// Recomputes every box (and cone) from `positions`.
     void refit(const float* positions);
@@ -64,15 +64,15 @@ public:
     const float* box(int slot) const { return &slot_box_[6 * static_cast<size_t>(slot)]; }
     /// The slot of a triangle id, or -1 when the tree does not hold it.
     int32_t slot_of(int32_t triangle) const {
-        return triangle >= 0 && triangle < static_cast<int32_t>(slot_of_triangle_.size())
-                   ? slot_of_triangle_[triangle] : -1;
+        return triangle >= 0 && triangle < static_cast<int32_t>(slot_of_triangle_.size()) ? slot_of_triangle_[triangle]
+                                                                                          : -1;
     }
 
     /// Nearest hit of the ray o + t d, 0 <= t <= t_max, with a held triangle (Möller–Trumbore
     /// in double), or the farthest one. @return false when there is none; else *t and
     /// *triangle (an id).
-    bool ray_first_hit(const float* positions, const double* o, const double* d, double t_max,
-                       double* t, int32_t* triangle, bool farthest = false) const;
+    bool ray_first_hit(const float* positions, const double* o, const double* d, double t_max, double* t,
+                       int32_t* triangle, bool farthest = false) const;
 
 private:
     void refit_leaf(const float* positions, int node);
@@ -90,7 +90,7 @@ private:
     std::vector<int32_t> border_slots_;     // sorted slots outside the node sharing an edge with it
     std::vector<int32_t> dirty_;
     std::vector<uint8_t> dirty_flag_;
-    std::vector<int32_t> descendants_end_;  // per node: its descendants are [first, end)
+    std::vector<int32_t> descendants_end_;            // per node: its descendants are [first, end)
     std::vector<int32_t> subtree_roots_, top_nodes_;  // the cut for the parallel refit
 };
 

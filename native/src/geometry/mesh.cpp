@@ -42,10 +42,8 @@ FitMesh::~FitMesh() = default;
 
 FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
     : halfedge_(std::make_unique<HalfEdge>()) {
-    if (V < 3 || V > 50'000'000)
-        throw InvalidInput("vertex count must be in 3..5e7, got " + std::to_string(V));
-    if (T < 1 || T > 100'000'000)
-        throw InvalidInput("triangle count must be in 1..1e8, got " + std::to_string(T));
+    if (V < 3 || V > 50'000'000) throw InvalidInput("vertex count must be in 3..5e7, got " + std::to_string(V));
+    if (T < 1 || T > 100'000'000) throw InvalidInput("triangle count must be in 1..1e8, got " + std::to_string(T));
     if (!positions || !triangles) throw InvalidInput("mesh positions or triangles is NULL");
     positions_.resize(V);
     lo_ = dvec3(std::numeric_limits<double>::infinity());
@@ -53,8 +51,7 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
     for (int v = 0; v < V; ++v) {
         const dvec3 p(positions[3 * v], positions[3 * v + 1], positions[3 * v + 2]);
         if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) || glm::length(p) > 1e12)
-            throw InvalidInput("mesh vertex " + std::to_string(v) +
-                               " has a non-finite or enormous coordinate");
+            throw InvalidInput("mesh vertex " + std::to_string(v) + " has a non-finite or enormous coordinate");
         positions_[v] = p;
         lo_ = glm::min(lo_, p);
         hi_ = glm::max(hi_, p);
@@ -68,8 +65,8 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
         const int32_t* f = triangles + 3 * t;
         for (int i = 0; i < 3; ++i)
             if (f[i] < 0 || f[i] >= V)
-                throw InvalidInput("triangle " + std::to_string(t) + " refers to vertex " +
-                                   std::to_string(f[i]) + ", out of range 0.." + std::to_string(V - 1));
+                throw InvalidInput("triangle " + std::to_string(t) + " refers to vertex " + std::to_string(f[i]) +
+                                   ", out of range 0.." + std::to_string(V - 1));
         if (f[0] == f[1] || f[1] == f[2] || f[0] == f[2]) {
             ++stats_.degenerate_triangles;
             continue;

@@ -17,8 +17,8 @@ MeshTopology MeshTopology::build(int V, const int32_t* tris, int T, const float*
         for (int k = 0; k < 3; ++k) {
             const int32_t v = tris[3 * t + k];
             if (v < 0 || v >= V)
-                throw InvalidInput("triangle " + std::to_string(t) + " has vertex index " +
-                                   std::to_string(v) + " outside 0.." + std::to_string(V - 1));
+                throw InvalidInput("triangle " + std::to_string(t) + " has vertex index " + std::to_string(v) +
+                                   " outside 0.." + std::to_string(V - 1));
         }
     m.vertex_triangle_offsets.assign(V + 1, 0);
     for (int32_t v : m.triangles) ++m.vertex_triangle_offsets[v + 1];

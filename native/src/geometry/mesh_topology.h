@@ -11,7 +11,7 @@ namespace sd::anatomy {
 
 struct MeshTopology {
     int vertex_count = 0;
-    std::vector<int32_t> triangles;  ///< #T*3 vertex indices
+    std::vector<int32_t> triangles;                 ///< #T*3 vertex indices
     std::vector<uint32_t> vertex_triangle_offsets;  ///< #V+1, CSR rows of vertex_triangles
     std::vector<int32_t> vertex_triangles;
     std::vector<uint32_t> neighbour_offsets;  ///< #V+1, CSR rows of neighbours

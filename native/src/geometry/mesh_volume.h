@@ -15,8 +15,7 @@ namespace sd::anatomy {
 double mesh_volume(const MeshTopology& mesh, const float* positions);
 
 /// Volume enclosed by `triangles` (ids) plus a fan cap on each boundary loop.
-double closed_region_volume(const MeshTopology& mesh, const std::vector<int32_t>& triangles,
-                            const float* positions);
+double closed_region_volume(const MeshTopology& mesh, const std::vector<int32_t>& triangles, const float* positions);
 
 /// A region's triangles and its boundary loops (each loop's directed edges a -> b, in order),
 /// found once; volume() then costs one pass over the triangles and loops.

@@ -15,8 +15,8 @@ namespace {
 constexpr float kConeCull = 0.02f;
 
 bool boxes_overlap(const float* lo_a, const float* hi_a, const float* lo_b, const float* hi_b) {
-    return lo_a[0] <= hi_b[0] && lo_b[0] <= hi_a[0] && lo_a[1] <= hi_b[1] && lo_b[1] <= hi_a[1] &&
-           lo_a[2] <= hi_b[2] && lo_b[2] <= hi_a[2];
+    return lo_a[0] <= hi_b[0] && lo_b[0] <= hi_a[0] && lo_a[1] <= hi_b[1] && lo_b[1] <= hi_a[1] && lo_a[2] <= hi_b[2] &&
+           lo_b[2] <= hi_a[2];
 }
 
 struct Task {
@@ -247,8 +247,8 @@ std::unique_ptr<CollisionBackend> make_cpu_collision_backend(CpuCollisionOptions
     return std::make_unique<CpuCollisionBackend>(options);
 }
 
-void brute_force_pairs(const MeshTopology& mesh, const std::vector<int32_t>& triangles,
-                       const float* p, std::vector<TrianglePair>& out) {
+void brute_force_pairs(const MeshTopology& mesh, const std::vector<int32_t>& triangles, const float* p,
+                       std::vector<TrianglePair>& out) {
     out.clear();
     const size_t n = triangles.size();
     std::vector<float> box(6 * n);

@@ -80,7 +80,7 @@ private:
 std::unique_ptr<CollisionBackend> make_cpu_collision_backend(CpuCollisionOptions options = {});
 
 /// The reference: every pair of `triangles` tested (after a box check), O(n^2). Sorted.
-void brute_force_pairs(const MeshTopology& mesh, const std::vector<int32_t>& triangles,
-                       const float* positions, std::vector<TrianglePair>& out);
+void brute_force_pairs(const MeshTopology& mesh, const std::vector<int32_t>& triangles, const float* positions,
+                       std::vector<TrianglePair>& out);
 
 }  // namespace sd::anatomy

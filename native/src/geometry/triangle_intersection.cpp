@@ -26,9 +26,7 @@ P2 project(const P3& p, int drop) {
     return {{p[i], p[j]}};
 }
 
-bool mixed(int a, int b, int c) {
-    return (a > 0 || b > 0 || c > 0) && (a < 0 || b < 0 || c < 0);
-}
+bool mixed(int a, int b, int c) { return (a > 0 || b > 0 || c > 0) && (a < 0 || b < 0 || c < 0); }
 
 // ---- 2D ------------------------------------------------------------------------------
 
@@ -56,8 +54,7 @@ bool triangles_intersect_2d(const P2 (&t)[3], const P2 (&u)[3]) {
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
             if (segments_intersect_2d(t[i], t[(i + 1) % 3], u[j], u[(j + 1) % 3])) return true;
-    return point_in_triangle_2d(t[0], u[0], u[1], u[2]) ||
-           point_in_triangle_2d(u[0], t[0], t[1], t[2]);
+    return point_in_triangle_2d(t[0], u[0], u[1], u[2]) || point_in_triangle_2d(u[0], t[0], t[1], t[2]);
 }
 
 // ---- 3D helpers ------------------------------------------------------------------------
@@ -69,8 +66,7 @@ bool triangles_intersect_2d(const P2 (&t)[3], const P2 (&u)[3]) {
 int dominant_axis(const P3& a, const P3& b, const P3& c) {
     const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
     const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
-    const double n[3] = {std::abs(uy * vz - uz * vy), std::abs(uz * vx - ux * vz),
-                         std::abs(ux * vy - uy * vx)};
+    const double n[3] = {std::abs(uy * vz - uz * vy), std::abs(uz * vx - ux * vz), std::abs(ux * vy - uy * vx)};
     return n[0] >= n[1] && n[0] >= n[2] ? 0 : (n[1] >= n[2] ? 1 : 2);
 }
 
@@ -108,8 +104,7 @@ bool segment_triangle_signed(const P3& a, const P3& b, int sa, int sb, const P3 
 bool segments_intersect_3d(const P3& a, const P3& b, const P3& c, const P3& d) {
     if (orient3d(a.data(), b.data(), c.data(), d.data()) != 0) return false;
     for (int drop = 0; drop < 3; ++drop)
-        if (!segments_intersect_2d(project(a, drop), project(b, drop), project(c, drop),
-                                   project(d, drop)))
+        if (!segments_intersect_2d(project(a, drop), project(b, drop), project(c, drop), project(d, drop)))
             return false;
     return true;
 }
@@ -160,22 +155,22 @@ bool intersect(const P3 (&t)[3], const P3 (&u)[3]) {
 
 }  // namespace
 
-bool triangles_intersect(const float* p0, const float* p1, const float* p2, const float* q0,
-                         const float* q1, const float* q2) {
+bool triangles_intersect(const float* p0, const float* p1, const float* p2, const float* q0, const float* q1,
+                         const float* q2) {
     const P3 t[3] = {to_p3(p0), to_p3(p1), to_p3(p2)};
     const P3 u[3] = {to_p3(q0), to_p3(q1), to_p3(q2)};
     return intersect(t, u);
 }
 
-bool triangles_intersect(const double* p0, const double* p1, const double* p2,
-                         const double* q0, const double* q1, const double* q2) {
+bool triangles_intersect(const double* p0, const double* p1, const double* p2, const double* q0, const double* q1,
+                         const double* q2) {
     const P3 t[3] = {to_p3(p0), to_p3(p1), to_p3(p2)};
     const P3 u[3] = {to_p3(q0), to_p3(q1), to_p3(q2)};
     return intersect(t, u);
 }
 
-bool segment_intersects_triangle(const double* a, const double* b, const double* p0,
-                                 const double* p1, const double* p2) {
+bool segment_intersects_triangle(const double* a, const double* b, const double* p0, const double* p1,
+                                 const double* p2) {
     const P3 s[2] = {to_p3(a), to_p3(b)};
     const P3 t[3] = {to_p3(p0), to_p3(p1), to_p3(p2)};
     if (degenerate(t[0], t[1], t[2])) {

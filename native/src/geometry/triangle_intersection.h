@@ -20,16 +20,16 @@
 namespace sd::anatomy {
 
 /// Exact test of two closed triangles (p0, p1, p2) and (q0, q1, q2), each point 3 floats.
-bool triangles_intersect(const float* p0, const float* p1, const float* p2, const float* q0,
-                         const float* q1, const float* q2);
+bool triangles_intersect(const float* p0, const float* p1, const float* p2, const float* q0, const float* q1,
+                         const float* q2);
 
 /// The same for double coordinates (used by the tests' analytic cases).
-bool triangles_intersect(const double* p0, const double* p1, const double* p2,
-                         const double* q0, const double* q1, const double* q2);
+bool triangles_intersect(const double* p0, const double* p1, const double* p2, const double* q0, const double* q1,
+                         const double* q2);
 
 /// Exact test of a closed segment [a, b] against a closed triangle (p0, p1, p2) (either may be
 /// degenerate).
-bool segment_intersects_triangle(const double* a, const double* b, const double* p0,
-                                 const double* p1, const double* p2);
+bool segment_intersects_triangle(const double* a, const double* b, const double* p0, const double* p1,
+                                 const double* p2);
 
 }  // namespace sd::anatomy

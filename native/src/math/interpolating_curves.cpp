@@ -9,19 +9,17 @@ namespace sd {
 std::vector<double> chord_length_knots(const std::vector<dvec3>& points) {
     if (points.size() < 2) throw InvalidInput("a sweep needs at least two key ellipses");
     std::vector<double> knots(points.size(), 0.0);
-    for (size_t i = 1; i < points.size(); ++i)
-        knots[i] = knots[i - 1] + glm::length(points[i] - points[i - 1]);
+    for (size_t i = 1; i < points.size(); ++i) knots[i] = knots[i - 1] + glm::length(points[i] - points[i - 1]);
     const double total = knots.back();
     for (size_t i = 1; i < points.size(); ++i) {
         if (!(knots[i] - knots[i - 1] > 1e-9 * total) || !std::isfinite(knots[i]))
-            throw InvalidInput("key ellipses " + std::to_string(i - 1) + " and " +
-                               std::to_string(i) + " of a sweep have the same center");
+            throw InvalidInput("key ellipses " + std::to_string(i - 1) + " and " + std::to_string(i) +
+                               " of a sweep have the same center");
     }
     return knots;
 }
 
-std::vector<CubicSpan> interpolate_cubic(const std::vector<dvec3>& p,
-                                         const std::vector<double>& t) {
+std::vector<CubicSpan> interpolate_cubic(const std::vector<dvec3>& p, const std::vector<double>& t) {
     const size_t n = p.size() - 1;  // spans
     // Second derivatives M_i with M_0 = M_n = 0 from the tridiagonal C2 conditions
     // (Thomas algorithm; diagonally dominant, so no pivoting is needed).
@@ -122,8 +120,7 @@ QuadraticCardinalBasis::QuadraticCardinalBasis(const std::vector<double>& t) {
             }
             const Eigen::MatrixXd c = vander.partialPivLu().solve(samples);
             for (int k = 0; k < keys_; ++k)
-                for (int r = 0; r < 3; ++r)
-                    coef_[((static_cast<size_t>(s) * 2 + half) * keys_ + k) * 3 + r] = c(r, k);
+                for (int r = 0; r < 3; ++r) coef_[((static_cast<size_t>(s) * 2 + half) * keys_ + k) * 3 + r] = c(r, k);
         }
     }
 }

@@ -27,8 +27,7 @@ struct CubicSpan {
 /// The C2 cubic spline through `points` at `knots` with natural end conditions (zero second
 /// derivative at both ends); with two points it is the straight segment.
 /// @return points.size()-1 spans, span i maps u in [0,1] to t = t_i + u (t_{i+1} - t_i).
-std::vector<CubicSpan> interpolate_cubic(const std::vector<dvec3>& points,
-                                         const std::vector<double>& knots);
+std::vector<CubicSpan> interpolate_cubic(const std::vector<dvec3>& points, const std::vector<double>& knots);
 
 /// Quadratic interpolation at the knots t_0..t_n as cardinal functions phi_k (phi_k(t_i) =
 /// delta_ik), so that a(t) = sum_k a_k phi_k(t) is linear in the key values — which is what

@@ -15,8 +15,7 @@ double closed_mesh_volume(int, const float* p, int T, const int32_t* tri) {
         const float* a = p + 3 * tri[3 * t];
         const float* b = p + 3 * tri[3 * t + 1];
         const float* c = p + 3 * tri[3 * t + 2];
-        six_v += glm::dot(dvec3(a[0], a[1], a[2]),
-                          glm::cross(dvec3(b[0], b[1], b[2]), dvec3(c[0], c[1], c[2])));
+        six_v += glm::dot(dvec3(a[0], a[1], a[2]), glm::cross(dvec3(b[0], b[1], b[2]), dvec3(c[0], c[1], c[2])));
     }
     return six_v / 6.0;
 }
@@ -34,9 +33,9 @@ int64_t intersecting_pairs(int V, const float* positions, int T, const int32_t* 
     return static_cast<int64_t>(pairs.size());
 }
 
-std::vector<double> cross_section_areas(int V, const float* positions, int T,
-                                        const int32_t* triangles, const std::vector<dvec3>& points,
-                                        const std::vector<dvec3>& normals, double reach) {
+std::vector<double> cross_section_areas(int V, const float* positions, int T, const int32_t* triangles,
+                                        const std::vector<dvec3>& points, const std::vector<dvec3>& normals,
+                                        double reach) {
     const fit::FitMesh mesh(V, positions, T, triangles);
     std::vector<double> areas;
     for (size_t i = 0; i < points.size(); ++i) {

@@ -16,7 +16,7 @@ constexpr int kValues = 8;  // dc.xyz, dr.xyz, ln sa, ln sb
 using Sample = std::array<double, kValues>;
 
 Sample sample_of(const KeyCorrection& c) {
-    return {c.delta_center.x, c.delta_center.y, c.delta_center.z, c.delta_rotation.x,
+    return {c.delta_center.x,   c.delta_center.y,   c.delta_center.z,    c.delta_rotation.x,
             c.delta_rotation.y, c.delta_rotation.z, std::log(c.scale_a), std::log(c.scale_b)};
 }
 
@@ -39,8 +39,7 @@ double interior_slope(double h0, double h1, double d0, double d1) {
 
 }  // namespace
 
-KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, double rest_angle,
-                                 double angle) {
+KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, double rest_angle, double angle) {
     // Samples, sorted by angle, close ones averaged.
     std::vector<double> x;
     std::vector<Sample> y;
@@ -59,9 +58,8 @@ KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, 
     }
     if (x.empty()) return {};
     // The rest pose keeps no correction unless one was made there.
-    const bool at_rest = std::any_of(x.begin(), x.end(), [&](double xi) {
-        return std::abs(xi - rest_angle) <= kCorrectionAngleTolerance;
-    });
+    const bool at_rest = std::any_of(x.begin(), x.end(),
+                                     [&](double xi) { return std::abs(xi - rest_angle) <= kCorrectionAngleTolerance; });
     if (!at_rest) {
         const auto it = std::lower_bound(x.begin(), x.end(), rest_angle);
         const auto i = it - x.begin();
@@ -77,8 +75,7 @@ KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, 
     const int i = static_cast<int>(std::upper_bound(x.begin(), x.end(), angle) - x.begin()) - 1;
     const double h = x[i + 1] - x[i], t = (angle - x[i]) / h;
     const double t2 = t * t, t3 = t2 * t;
-    const double h00 = 2 * t3 - 3 * t2 + 1, h10 = t3 - 2 * t2 + t, h01 = -2 * t3 + 3 * t2,
-                 h11 = t3 - t2;
+    const double h00 = 2 * t3 - 3 * t2 + 1, h10 = t3 - 2 * t2 + t, h01 = -2 * t3 + 3 * t2, h11 = t3 - t2;
     Sample out{};
     for (int c = 0; c < kValues; ++c) {
         const auto slope = [&](int j) {
@@ -97,12 +94,10 @@ dquat rotation_from_vector(const dvec3& v) {
     return glm::angleAxis(angle, v / angle);
 }
 
-void apply_correction(const KeyCorrectionValue& c, dvec3& center, dquat& rotation, double& a,
-                      double& b) {
+void apply_correction(const KeyCorrectionValue& c, dvec3& center, dquat& rotation, double& a, double& b) {
     if (c.is_identity()) return;
     center += glm::mat3_cast(rotation) * c.delta_center;
-    if (c.delta_rotation != dvec3(0.0))
-        rotation = glm::normalize(rotation * rotation_from_vector(c.delta_rotation));
+    if (c.delta_rotation != dvec3(0.0)) rotation = glm::normalize(rotation * rotation_from_vector(c.delta_rotation));
     a *= c.scale_a;
     b *= c.scale_b;
 }

@@ -26,13 +26,11 @@ double angle_between(const dvec3& u, const dvec3& v);
 /// (centre offset, rotation vector, log of the scales): Fritsch–Carlson slopes inside, zero
 /// slope at the first and last sample, constant beyond them. So it never overshoots the
 /// samples, is C1, and an angle within 1e-5 rad of a sample gives that sample exactly.
-KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, double rest_angle,
-                                 double angle);
+KeyCorrectionValue correction_at(const std::vector<KeyCorrection>& corrections, double rest_angle, double angle);
 
 /// Applies a correction to one placed key: center + R dc, R exp(dr), a sa, b sb
 /// (R = the placed orientation). Identity corrections change nothing, bit for bit.
-void apply_correction(const KeyCorrectionValue& c, dvec3& center, dquat& rotation, double& a,
-                      double& b);
+void apply_correction(const KeyCorrectionValue& c, dvec3& center, dquat& rotation, double& a, double& b);
 
 /// Rotation vector (axis * angle) → unit quaternion.
 dquat rotation_from_vector(const dvec3& v);

@@ -63,8 +63,8 @@ void correct_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec
         const double angle = joint_angle(j, pose);
         if (angles) (*angles)[k] = angle;
         if (corrected)
-            apply_correction(correction_at(sweep.keys[k].corrections, j.rest_angle, angle),
-                             centers[k], rotations[k], a[k], b[k]);
+            apply_correction(correction_at(sweep.keys[k].corrections, j.rest_angle, angle), centers[k], rotations[k],
+                             a[k], b[k]);
     }
 }
 

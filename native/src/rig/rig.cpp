@@ -64,8 +64,7 @@ void check_half_axes(const Sweep& s, const std::vector<double>& a, const std::ve
 
 void check_correction(const Sweep& s, int k, const KeyCorrection& c) {
     const KeyEllipse& e = s.keys[k];
-    const std::string what = "correction of key ellipse " + std::to_string(k) + " at angle " +
-                             std::to_string(c.angle);
+    const std::string what = "correction of key ellipse " + std::to_string(k) + " at angle " + std::to_string(c.angle);
     if (!std::isfinite(c.angle) || c.angle < 0.0 || c.angle > M_PI + 1e-9)
         throw InvalidInput(what + ": the angle must be in [0, pi]");
     if (!finite(c.delta_center) || glm::length(c.delta_center) > 10.0 * std::max(e.a, e.b))
@@ -87,8 +86,7 @@ void check_correction(const Sweep& s, int k, const KeyCorrection& c) {
 
 void set_sweep_corrections(Sweep& s, std::vector<std::vector<KeyCorrection>> per_key) {
     const int K = s.key_count();
-    if (static_cast<int>(per_key.size()) != K)
-        throw InvalidInput("one list of corrections per key ellipse is needed");
+    if (static_cast<int>(per_key.size()) != K) throw InvalidInput("one list of corrections per key ellipse is needed");
     bool any = false;
     for (int k = 0; k < K; ++k) {
         auto& cs = per_key[k];
@@ -149,19 +147,18 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
         // rig read back from a blob is bit-for-bit the rig that was saved.
         const double qn = std::sqrt(glm::dot(e.orientation, e.orientation));
         if (!std::isfinite(qn) || std::abs(qn - 1.0) > 1e-9)
-            throw InvalidInput(key_name(k) + ": orientation is not a unit quaternion (|q| = " +
-                               std::to_string(qn) + ")");
+            throw InvalidInput(key_name(k) + ": orientation is not a unit quaternion (|q| = " + std::to_string(qn) +
+                               ")");
         if (!(e.a > 0.0) || !(e.b > 0.0) || !std::isfinite(e.a) || !std::isfinite(e.b))
             throw InvalidInput(key_name(k) + ": half-axes must be finite and > 0");
         if (e.bone < 0 || e.bone >= B)
-            throw InvalidInput(key_name(k) + ": bone " + std::to_string(e.bone) +
-                               " is out of range 0.." + std::to_string(B - 1));
+            throw InvalidInput(key_name(k) + ": bone " + std::to_string(e.bone) + " is out of range 0.." +
+                               std::to_string(B - 1));
         if (e.joint_parent < -1 || e.joint_parent >= B || e.joint_parent == e.bone)
             throw InvalidInput(key_name(k) + ": joint parent " + std::to_string(e.joint_parent) +
                                " is out of range or equals its bone");
         for (double f : {e.swing_fraction, e.twist_fraction})
-            if (!(f >= 0.0 && f <= 1.0))
-                throw InvalidInput(key_name(k) + ": swing/twist fractions must be in [0, 1]");
+            if (!(f >= 0.0 && f <= 1.0)) throw InvalidInput(key_name(k) + ": swing/twist fractions must be in [0, 1]");
         centers.push_back(e.center);
         rotations.push_back(e.orientation);
         is_joint.push_back(e.is_joint_key());
@@ -172,8 +169,9 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
         const int span = k < static_cast<int>(keys.size()) - 1 ? k : k - 1;
         const double u = k < static_cast<int>(keys.size()) - 1 ? 0.0 : 1.0;
         if (!(glm::dot(keys[k].normal(), s.rest_geometry.tangent(span, u)) > 0.0))
-            throw InvalidInput(key_name(k) + ": its normal (third column) must point along "
-                                             "the sweep, towards the next key");
+            throw InvalidInput(key_name(k) +
+                               ": its normal (third column) must point along "
+                               "the sweep, towards the next key");
     }
     s.rest_half_axes.basis = QuadraticCardinalBasis(s.rest_geometry.knots());
     for (const KeyEllipse& e : keys) {
@@ -186,17 +184,15 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
         for (int i = 0; i <= 16; ++i) {
             const dvec2 ab = s.rest_half_axes.at(span, i / 16.0);
             if (!(ab.x > 0.0) || !(ab.y > 0.0))
-                throw InvalidInput("between key ellipses " + std::to_string(span) + " and " +
-                                   std::to_string(span + 1) +
+                throw InvalidInput("between key ellipses " + std::to_string(span) + " and " + std::to_string(span + 1) +
                                    " the interpolated half-axes become <= 0; "
                                    "neighbouring half-axes differ too much");
         }
     s.quadrature = VolumeQuadrature(s.rest_half_axes.basis);
     s.control_keys = volume_control_keys(is_joint);
-    s.rest_volume = sweep_volume(s.quadrature, volume_density(s.quadrature, s.rest_geometry),
-                                 s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
-    if (!(s.rest_volume > 0.0))
-        throw InvalidInput("the sweep's rest volume is not positive");
+    s.rest_volume = sweep_volume(s.quadrature, volume_density(s.quadrature, s.rest_geometry), s.rest_half_axes.a.data(),
+                                 s.rest_half_axes.b.data());
+    if (!(s.rest_volume > 0.0)) throw InvalidInput("the sweep's rest volume is not positive");
     s.joints = key_joints(keys, s.rest_geometry.knots(), skeleton);
     s.corrected_rest_volume = s.rest_volume;
     std::vector<std::vector<KeyCorrection>> corrections(keys.size());
@@ -243,8 +239,7 @@ void Rig::set_key_corrections(int sweep, int key, std::vector<KeyCorrection> lis
     if (sweep < 0 || sweep >= static_cast<int>(sweeps.size()))
         throw InvalidInput("sweep index " + std::to_string(sweep) + " is out of range");
     Sweep& s = sweeps[sweep];
-    if (key < 0 || key >= s.key_count())
-        throw InvalidInput("key index " + std::to_string(key) + " is out of range");
+    if (key < 0 || key >= s.key_count()) throw InvalidInput("key index " + std::to_string(key) + " is out of range");
     std::vector<std::vector<KeyCorrection>> per_key;
     for (const KeyEllipse& e : s.keys) per_key.push_back(e.corrections);
     per_key[key] = std::move(list);
@@ -255,8 +250,7 @@ std::vector<CorrectionRecord> Rig::corrections() const {
     std::vector<CorrectionRecord> out;
     for (size_t s = 0; s < sweeps.size(); ++s)
         for (int k = 0; k < sweeps[s].key_count(); ++k)
-            for (const KeyCorrection& c : sweeps[s].keys[k].corrections)
-                out.push_back({static_cast<int>(s), k, c});
+            for (const KeyCorrection& c : sweeps[s].keys[k].corrections) out.push_back({static_cast<int>(s), k, c});
     return out;
 }
 

@@ -23,9 +23,9 @@ constexpr int kMaxCorrectionsPerKey = 64;
 /// The angle is the one between the directions (tail - head) of the two links, turned by
 /// each link's rotation in the pose: 0 for a straight limb, pi for one folded back.
 struct KeyJoint {
-    int parent = -1, child = -1;         ///< upper and lower link (bone indices)
+    int parent = -1, child = -1;                      ///< upper and lower link (bone indices)
     dvec3 parent_axis{0, 0, 1}, child_axis{0, 0, 1};  ///< unit rest directions of the links
-    double rest_angle = 0.0;             ///< the angle at rest
+    double rest_angle = 0.0;                          ///< the angle at rest
 };
 
 /// One sweep with the rest-pose data derived from its key ellipses.
@@ -36,12 +36,12 @@ struct Sweep {
     VolumeQuadrature quadrature;
     VolumeControlKeys control_keys;
     double rest_volume = 0.0;
-    std::vector<KeyJoint> joints;        ///< #K, the joint of each key (see KeyJoint)
+    std::vector<KeyJoint> joints;  ///< #K, the joint of each key (see KeyJoint)
     /// The volume control's V0: the rest volume of the sweep with the corrections at the
     /// rest angles applied to the key centers and orientations (half-axes uncorrected); equal
     /// to rest_volume unless a correction sits at a rest angle.
     double corrected_rest_volume = 0.0;
-    bool has_corrections = false;        ///< any key has a (possibly muted) correction
+    bool has_corrections = false;  ///< any key has a (possibly muted) correction
 
     int key_count() const { return static_cast<int>(keys.size()); }
     int span_count() const { return key_count() - 1; }

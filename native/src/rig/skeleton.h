@@ -9,24 +9,24 @@
 namespace sd {
 
 struct Skeleton {
-    std::vector<int> parents;       ///< #B, parent index or -1; no cycles
-    std::vector<dmat4> rest;        ///< #B rest matrices, armature space
+    std::vector<int> parents;  ///< #B, parent index or -1; no cycles
+    std::vector<dmat4> rest;   ///< #B rest matrices, armature space
     std::vector<dmat4> rest_inverse;
     std::vector<dvec3> heads, tails;
 
     int bone_count() const { return static_cast<int>(parents.size()); }
 
     /// Validates and stores the arrays (see sd_rig_create). @throws InvalidInput
-    static Skeleton from_arrays(int bone_count, const int* parents, const float* rest,
-                                const float* heads, const float* tails);
+    static Skeleton from_arrays(int bone_count, const int* parents, const float* rest, const float* heads,
+                                const float* tails);
     /// The same from double precision data (a rig blob). @throws InvalidInput
-    static Skeleton build(std::vector<int> parents, std::vector<dmat4> rest,
-                          std::vector<dvec3> heads, std::vector<dvec3> tails);
+    static Skeleton build(std::vector<int> parents, std::vector<dmat4> rest, std::vector<dvec3> heads,
+                          std::vector<dvec3> tails);
 };
 
 /// One pose: for every bone its deformation M_b = P_b rest_b^-1 and the rotation of M_b.
 struct SkeletonPose {
-    std::vector<dmat4> deform;  ///< #B
+    std::vector<dmat4> deform;    ///< #B
     std::vector<dquat> rotation;  ///< #B unit quaternions, polar rotation of deform's 3x3
 
     /// @param pose  #B*16 column-major posed bone matrices (armature space)

@@ -11,11 +11,9 @@ SweepGeometry::SweepGeometry(const std::vector<dvec3>& centers, const std::vecto
         if (glm::dot(q_[i - 1], q_[i]) < 0.0) q_[i] = -q_[i];
 }
 
-dvec3 sweep_point(const SweepGeometry& g, const HalfAxisFunctions& h, int span, double u,
-                  double theta) {
+dvec3 sweep_point(const SweepGeometry& g, const HalfAxisFunctions& h, int span, double u, double theta) {
     const dvec2 ab = h.at(span, u);
-    return g.rotation(span, u) * dvec3(ab.x * std::cos(theta), ab.y * std::sin(theta), 0.0) +
-           g.center(span, u);
+    return g.rotation(span, u) * dvec3(ab.x * std::cos(theta), ab.y * std::sin(theta), 0.0) + g.center(span, u);
 }
 
 void split_parameter(int span_count, double s, int* span, double* u) {

@@ -56,8 +56,7 @@ struct HalfAxisFunctions {
 };
 
 /// S(theta, t) given the geometry and the half-axis functions.
-dvec3 sweep_point(const SweepGeometry& g, const HalfAxisFunctions& h, int span, double u,
-                  double theta);
+dvec3 sweep_point(const SweepGeometry& g, const HalfAxisFunctions& h, int span, double u, double theta);
 
 /// Maps a global sweep parameter s in [0, 1] (uniform per span) to (span, u).
 void split_parameter(int span_count, double s, int* span, double* u);

@@ -8,10 +8,8 @@ namespace sd {
 namespace {
 // 4-point Gauss–Legendre on [-1, 1]: exact to degree 7 per half-span, where the integrand
 // is smooth (a b quartic, <N, C'> rational of low degree).
-constexpr double kGaussX[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
-                               0.8611363115940526};
-constexpr double kGaussW[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
-                               0.3478548451374538};
+constexpr double kGaussX[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563, 0.8611363115940526};
+constexpr double kGaussW[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461, 0.3478548451374538};
 }  // namespace
 
 VolumeQuadrature::VolumeQuadrature(const QuadraticCardinalBasis& basis) {
@@ -37,8 +35,8 @@ std::vector<double> volume_density(const VolumeQuadrature& q, const SweepGeometr
     return d;
 }
 
-double sweep_volume(const VolumeQuadrature& q, const std::vector<double>& density,
-                    const double* a, const double* b, double* grad_a, double* grad_b) {
+double sweep_volume(const VolumeQuadrature& q, const std::vector<double>& density, const double* a, const double* b,
+                    double* grad_a, double* grad_b) {
     const int K = q.key_count;
     if (grad_a) std::fill(grad_a, grad_a + K, 0.0);
     if (grad_b) std::fill(grad_b, grad_b + K, 0.0);
@@ -112,9 +110,9 @@ VolumeControlKeys volume_control_keys(const std::vector<bool>& is_joint) {
     return keys;
 }
 
-VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys,
-                                   double target, std::vector<double>& a, std::vector<double>& b,
-                                   double tolerance, int max_iterations) {
+VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys, double target,
+                                   std::vector<double>& a, std::vector<double>& b, double tolerance,
+                                   int max_iterations) {
     const int K = form.key_count;
     const std::vector<double> a0 = a, b0 = b;
     std::vector<double> ga(K), gb(K);

@@ -16,9 +16,9 @@ namespace sd {
 /// Gauss–Legendre nodes over every half-span of a sweep, with φ_k tabulated at each node.
 struct VolumeQuadrature {
     static constexpr int kNodesPerHalf = 4;
-    std::vector<int> span;        ///< #nodes
+    std::vector<int> span;          ///< #nodes
     std::vector<double> u, weight;  ///< #nodes, weight in u
-    std::vector<double> phi;      ///< #nodes * K
+    std::vector<double> phi;        ///< #nodes * K
     int key_count = 0;
 
     VolumeQuadrature() = default;
@@ -30,9 +30,8 @@ struct VolumeQuadrature {
 std::vector<double> volume_density(const VolumeQuadrature& q, const SweepGeometry& g);
 
 /// V for key half-axes a, b (#K each); if grad_a/grad_b are given, also ∂V/∂a_k, ∂V/∂b_k.
-double sweep_volume(const VolumeQuadrature& q, const std::vector<double>& density,
-                    const double* a, const double* b, double* grad_a = nullptr,
-                    double* grad_b = nullptr);
+double sweep_volume(const VolumeQuadrature& q, const std::vector<double>& density, const double* a, const double* b,
+                    double* grad_a = nullptr, double* grad_b = nullptr);
 
 /// The volume in one pose as a bilinear form of the key half-axes: V(a, b) = a^T M b with
 /// M_kl = Σ_nodes w g φ_k φ_l. Built once per frame, it makes each controller step O(K²).
@@ -41,8 +40,7 @@ struct VolumeForm {
     int key_count = 0;
     VolumeForm(const VolumeQuadrature& q, const std::vector<double>& density);
     /// V for key half-axes a, b; optional gradients ∂V/∂a = M b, ∂V/∂b = M^T a.
-    double volume(const double* a, const double* b, double* grad_a = nullptr,
-                  double* grad_b = nullptr) const;
+    double volume(const double* a, const double* b, double* grad_a = nullptr, double* grad_b = nullptr) const;
 };
 
 /// Which keys the controller may rescale, in the paper's order.
@@ -63,9 +61,8 @@ struct VolumeControlResult {
 /// until |V − V_target| / V_target <= tolerance or `max_iterations` steps were taken.
 /// Half-axes stay within 10 % .. 10x of their rest values.
 /// @param a, b  in: rest key half-axes; out: controlled ones (#K each)
-VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys,
-                                   double target,
-                                   std::vector<double>& a, std::vector<double>& b,
-                                   double tolerance = 2e-4, int max_iterations = 5);
+VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys, double target,
+                                   std::vector<double>& a, std::vector<double>& b, double tolerance = 2e-4,
+                                   int max_iterations = 5);
 
 }  // namespace sd

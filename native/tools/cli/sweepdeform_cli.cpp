@@ -36,11 +36,11 @@ namespace fs = std::filesystem;
 // Exit codes (also in --help).
 enum Exit : int {
     kOk = 0,
-    kUsage = 1,      // bad command line
-    kInput = 2,      // a file is missing or unreadable, or not a valid character / BVH / pose file
-    kMapping = 3,    // no bone of the character matches the motion
-    kCore = 4,       // fitting, binding or deformation failed
-    kOutput = 5,     // an output file could not be written
+    kUsage = 1,    // bad command line
+    kInput = 2,    // a file is missing or unreadable, or not a valid character / BVH / pose file
+    kMapping = 3,  // no bone of the character matches the motion
+    kCore = 4,     // fitting, binding or deformation failed
+    kOutput = 5,   // an output file could not be written
 };
 
 struct Failure : std::runtime_error {
@@ -119,15 +119,13 @@ struct Options {
     std::string character, motion, output, skeleton, pose_file, bone_map, write_poses, report, points;
     std::string up = "y";
     int frame_a = 0, frame_b = -1, frame_step = 1;
-    bool frames_given = false, skin_weights = true, weld = false, volume = true, list_bones = false,
-         quiet = false, root_from_offset = false;
+    bool frames_given = false, skin_weights = true, weld = false, volume = true, list_bones = false, quiet = false,
+         root_from_offset = false;
     double volume_strength = 1.0, map_snap = sd::DisplacementMap::kDefaultSnap;
     int keys_per_link = 2, map_theta = 24, map_t = 3;
 };
 
-[[noreturn]] void usage_error(const std::string& what) {
-    throw Failure(kUsage, what + " (see sweepdeform --help)");
-}
+[[noreturn]] void usage_error(const std::string& what) { throw Failure(kUsage, what + " (see sweepdeform --help)"); }
 
 int parse_int(const std::string& s, const char* what) {
     try {
@@ -162,7 +160,8 @@ Options parse_args(int argc, char** argv) {
             std::printf("sweepdeform %s (libsweepdeform %s, ABI %d)\n", SWEEPDEFORM_VERSION, sd_library_version(),
                         sd_abi_version());
             std::exit(kOk);
-        } else if (a == "-o" || a == "--output") o.output = value("--output");
+        } else if (a == "-o" || a == "--output")
+            o.output = value("--output");
         else if (a == "--frames") {
             const std::string f = value("--frames");
             std::vector<std::string> parts;
@@ -179,25 +178,35 @@ Options parse_args(int argc, char** argv) {
         } else if (a == "--up") {
             o.up = value("--up");
             if (o.up != "y" && o.up != "z") usage_error("--up must be y or z");
-        } else if (a == "--write-poses") o.write_poses = value("--write-poses");
-        else if (a == "--report") o.report = value("--report");
-        else if (a == "--skeleton") o.skeleton = value("--skeleton");
-        else if (a == "--no-skin-weights") o.skin_weights = false;
-        else if (a == "--weld") o.weld = true;
+        } else if (a == "--write-poses")
+            o.write_poses = value("--write-poses");
+        else if (a == "--report")
+            o.report = value("--report");
+        else if (a == "--skeleton")
+            o.skeleton = value("--skeleton");
+        else if (a == "--no-skin-weights")
+            o.skin_weights = false;
+        else if (a == "--weld")
+            o.weld = true;
         else if (a == "--keys-per-link") {
             o.keys_per_link = parse_int(value("--keys-per-link"), "--keys-per-link");
             if (o.keys_per_link < 0 || o.keys_per_link > 16) usage_error("--keys-per-link must be in 0..16");
-        } else if (a == "--pose-file") o.pose_file = value("--pose-file");
-        else if (a == "--bone-map") o.bone_map = value("--bone-map");
-        else if (a == "--root-from-offset") o.root_from_offset = true;
-        else if (a == "--no-volume") o.volume = false;
+        } else if (a == "--pose-file")
+            o.pose_file = value("--pose-file");
+        else if (a == "--bone-map")
+            o.bone_map = value("--bone-map");
+        else if (a == "--root-from-offset")
+            o.root_from_offset = true;
+        else if (a == "--no-volume")
+            o.volume = false;
         else if (a == "--volume-strength") {
             const std::string v = value("--volume-strength");
             char* end = nullptr;
             o.volume_strength = std::strtod(v.c_str(), &end);
             if (end == v.c_str() || *end || !(o.volume_strength >= 0.0 && o.volume_strength <= 1.0))
                 usage_error("--volume-strength must be a number in [0, 1]");
-        } else if (a == "--points") o.points = value("--points");
+        } else if (a == "--points")
+            o.points = value("--points");
         else if (a == "--map-snap") {
             const std::string v = value("--map-snap");
             char* end = nullptr;
@@ -210,10 +219,14 @@ Options parse_args(int argc, char** argv) {
             if (x == std::string::npos) usage_error("--map-grid wants NxM, e.g. 24x3");
             o.map_theta = parse_int(g.substr(0, x), "--map-grid");
             o.map_t = parse_int(g.substr(x + 1), "--map-grid");
-        } else if (a == "--list-bones") o.list_bones = true;
-        else if (a == "-q" || a == "--quiet") o.quiet = true;
-        else if (a.size() > 1 && a[0] == '-') usage_error("unknown option '" + a + "'");
-        else positional.push_back(a);
+        } else if (a == "--list-bones")
+            o.list_bones = true;
+        else if (a == "-q" || a == "--quiet")
+            o.quiet = true;
+        else if (a.size() > 1 && a[0] == '-')
+            usage_error("unknown option '" + a + "'");
+        else
+            positional.push_back(a);
     }
     if (positional.empty()) usage_error("no CHARACTER given");
     o.character = positional[0];
@@ -314,9 +327,11 @@ sd::io::Character load_character(const Options& o, bool quiet) {
     } catch (const std::exception& e) {
         throw Failure(kInput, e.what());
     }
-    if (mesh.triangles.empty()) throw Failure(kInput, "character '" + o.character + "' has no faces (a point cloud? use --points)");
+    if (mesh.triangles.empty())
+        throw Failure(kInput, "character '" + o.character + "' has no faces (a point cloud? use --points)");
     if (dropped > 0 && !quiet)
-        std::fprintf(stderr, "warning: %s: %d non-manifold faces were dropped by OpenMesh\n", o.character.c_str(), dropped);
+        std::fprintf(stderr, "warning: %s: %d non-manifold faces were dropped by OpenMesh\n", o.character.c_str(),
+                     dropped);
     file_to_scene(mesh.positions, o.up);
     sd::io::Character c = skel;  // bones, nodes, animations
     c.positions = mesh.positions;
@@ -327,17 +342,21 @@ sd::io::Character load_character(const Options& o, bool quiet) {
     if (o.skin_weights) {
         // Closest point on the skeleton file's mesh, barycentric blend of its 4 influences.
         std::vector<sd::dvec3> p(skel.positions.size() / 3);
-        for (size_t i = 0; i < p.size(); ++i) p[i] = sd::dvec3(skel.positions[3 * i], skel.positions[3 * i + 1], skel.positions[3 * i + 2]);
+        for (size_t i = 0; i < p.size(); ++i)
+            p[i] = sd::dvec3(skel.positions[3 * i], skel.positions[3 * i + 1], skel.positions[3 * i + 2]);
         const sd::ClosestPoint closest(p, skel.triangles);
         double far = 0.0;
         for (size_t v = 0; v < V; ++v) {
             int t = 0;
             sd::dvec3 bary;
-            far = std::max(far, closest.query(sd::dvec3(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]), &t, &bary));
+            far = std::max(
+                far, closest.query(sd::dvec3(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]), &t,
+                                   &bary));
             std::map<int32_t, double> w;
             for (int k = 0; k < 3; ++k) {
                 const auto src = static_cast<size_t>(skel.triangles[3 * static_cast<size_t>(t) + k]);
-                for (int s = 0; s < 4; ++s) w[skel.skin_joints[4 * src + s]] += bary[k] * skel.skin_weights[4 * src + s];
+                for (int s = 0; s < 4; ++s)
+                    w[skel.skin_joints[4 * src + s]] += bary[k] * skel.skin_weights[4 * src + s];
             }
             std::vector<std::pair<double, int32_t>> sorted;
             for (const auto& [b, x] : w)
@@ -453,7 +472,9 @@ int run(const Options& o) {
         if (o.list_bones) {
             for (int b = 0; b < B; ++b)
                 std::printf("%3d %-24s %s\n", b, c.bone_names[static_cast<size_t>(b)].c_str(),
-                            map.source[static_cast<size_t>(b)] >= 0 ? clip->joints[static_cast<size_t>(map.source[static_cast<size_t>(b)])].name.c_str() : "-");
+                            map.source[static_cast<size_t>(b)] >= 0
+                                ? clip->joints[static_cast<size_t>(map.source[static_cast<size_t>(b)])].name.c_str()
+                                : "-");
             return kOk;
         }
     } else if (!o.pose_file.empty()) {
@@ -478,8 +499,8 @@ int run(const Options& o) {
     if (frame_count < 1) throw Failure(kInput, "the motion has no frames");
     const int a = o.frame_a, last = o.frames_given ? o.frame_b : frame_count - 1, step = o.frame_step;
     if (a >= frame_count || last >= frame_count)
-        throw Failure(kUsage, "--frames " + std::to_string(a) + ":" + std::to_string(last) + " outside the motion's 0.." +
-                                  std::to_string(frame_count - 1));
+        throw Failure(kUsage, "--frames " + std::to_string(a) + ":" + std::to_string(last) +
+                                  " outside the motion's 0.." + std::to_string(frame_count - 1));
 
     // ---- fit and bind (as the add-on: sd_fit_rig with 8 skin slots, keys_per_link, names) ----
     Handles h;
@@ -498,8 +519,8 @@ int run(const Options& o) {
     const bool use_skin = o.skin_weights;
     check(sd_fit_rig(V, c.positions.data(), T, c.triangles.data(), B, c.bone_parents.data(), c.bone_rest.data(),
                      c.bone_heads.data(), c.bone_tails.data(), names.data(), use_skin ? kSkinSlots : 0,
-                     use_skin ? skin_bones.data() : nullptr, use_skin ? skin_weights.data() : nullptr,
-                     o.keys_per_link, 0, nullptr, nullptr, &h.fit),
+                     use_skin ? skin_bones.data() : nullptr, use_skin ? skin_weights.data() : nullptr, o.keys_per_link,
+                     0, nullptr, nullptr, &h.fit),
           "fitting (sd_fit_rig)");
     check(sd_fit_result_rig(h.fit, &h.rig), "sd_fit_result_rig");
     int32_t sweep_slots = 0, bone_slots = 0;
@@ -590,7 +611,8 @@ int run(const Options& o) {
     std::unique_ptr<sd::io::Pc2Writer> pc2;
     std::unique_ptr<std::ofstream> poses_out;
     try {
-        if (out_ext == ".pc2") pc2 = std::make_unique<sd::io::Pc2Writer>(o.output, N, static_cast<float>(a), static_cast<float>(step));
+        if (out_ext == ".pc2")
+            pc2 = std::make_unique<sd::io::Pc2Writer>(o.output, N, static_cast<float>(a), static_cast<float>(step));
     } catch (const std::exception& e) {
         throw Failure(kOutput, e.what());
     }
@@ -609,11 +631,13 @@ int run(const Options& o) {
                                                                 pose_file.begin() + static_cast<long>(f + 1) * B * 16);
         pose_ms += ms_since(t0);
         t0 = std::chrono::steady_clock::now();
-        check(sd_deform(h.deformer, B, pose.data(), N, deformed.data()), ("sd_deform (frame " + std::to_string(f) + ")").c_str());
+        check(sd_deform(h.deformer, B, pose.data(), N, deformed.data()),
+              ("sd_deform (frame " + std::to_string(f) + ")").c_str());
         deform_ms.push_back(ms_since(t0));
         for (float x : deformed)
             if (!std::isfinite(x)) throw Failure(kCore, "frame " + std::to_string(f) + ": non-finite position");
-        for (size_t i = 0; i < deformed.size(); ++i) max_move = std::max(max_move, double(std::abs(deformed[i] - out_rest[i])));
+        for (size_t i = 0; i < deformed.size(); ++i)
+            max_move = std::max(max_move, double(std::abs(deformed[i] - out_rest[i])));
         t0 = std::chrono::steady_clock::now();
         try {
             if (pc2) {
@@ -622,7 +646,9 @@ int run(const Options& o) {
                 scene_to_file(deformed.data(), file_axes.data(), static_cast<size_t>(N), o.up);
                 sd::io::write_obj(frame_path(o.output, f), file_axes.data(), static_cast<size_t>(N), out_triangles);
             }
-            if (poses_out) poses_out->write(reinterpret_cast<const char*>(pose.data()), static_cast<std::streamsize>(pose.size() * sizeof(float)));
+            if (poses_out)
+                poses_out->write(reinterpret_cast<const char*>(pose.data()),
+                                 static_cast<std::streamsize>(pose.size() * sizeof(float)));
         } catch (const std::exception& e) {
             throw Failure(kOutput, e.what());
         }
@@ -643,7 +669,8 @@ int run(const Options& o) {
         "retarget %.2f ms, write %.2f ms per frame; largest displacement from rest %.3f\n",
         n, a, last, step, N, sum / double(n), sorted[n / 2], sorted.front(), sorted.back(), pose_ms / double(n),
         write_ms / double(n), max_move);
-    log("output     %s\n", pc2 ? o.output.c_str() : (frame_path(o.output, a) + " .. " + frame_path(o.output, last)).c_str());
+    log("output     %s\n",
+        pc2 ? o.output.c_str() : (frame_path(o.output, a) + " .. " + frame_path(o.output, last)).c_str());
     (void)frame_time;
     return kOk;
 }

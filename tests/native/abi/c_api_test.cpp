@@ -45,8 +45,8 @@ struct AbiArm {
     }
     ~AbiArm() { sd_rig_destroy(rig); }
     sd_status add_sweep() {
-        return sd_rig_add_sweep(rig, 7, centers.data(), orientations.data(), half_axes.data(),
-                                bones.data(), joint_parents.data(), fractions.data(), nullptr);
+        return sd_rig_add_sweep(rig, 7, centers.data(), orientations.data(), half_axes.data(), bones.data(),
+                                joint_parents.data(), fractions.data(), nullptr);
     }
     int vertex_count() const { return static_cast<int>(mesh.size() / 3); }
     sd_status bind(sd_binding** out) const {
@@ -72,21 +72,28 @@ TEST(CApi, InvalidSkeletonsAreRefused) {
     const auto create = [&](int n, const int32_t* parents, const float* rest, const float* heads, const float* tails) {
         return sd_rig_create(n, parents, rest, heads, tails, &rig);
     };
-    expect_error(create(0, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "zero bones");
-    expect_error(create(3, nullptr, arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "NULL parents");
+    expect_error(create(0, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "zero bones");
+    expect_error(create(3, nullptr, arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT,
+                 "NULL parents");
     std::vector<int32_t> bad_parents = {-1, 2, 1};
-    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "parent cycle");
+    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "parent cycle");
     bad_parents = {-1, 0, 3};
-    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "parent out of range");
+    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "parent out of range");
     std::vector<float> rest = arm.rest;
     rest[5] = kNaN;
-    expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "NaN rest");
+    expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "NaN rest");
     rest = arm.rest;
     rest[0] = rest[5] = rest[10] = 0;  // zero scale
-    expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT, "degenerate rest");
+    expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "degenerate rest");
     std::vector<float> tails = arm.tails;
     tails[0] = 0;  // zero-length bone
-    expect_error(create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), tails.data()), SD_ERR_INVALID_ARGUMENT, "zero length");
+    expect_error(create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "zero length");
     EXPECT_EQ(rig, nullptr) << "no handle is returned on failure";
     expect_error(sd_rig_create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data(), nullptr),
                  SD_ERR_INVALID_ARGUMENT, "NULL out pointer");
@@ -130,19 +137,26 @@ TEST(CApi, InvalidBindingInputsAreRefused) {
     sd_binding* b = nullptr;
     std::vector<float> mesh = arm.mesh;
     mesh[7] = kNaN;
-    expect_error(sd_bind(arm.rig, V, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b), SD_ERR_INVALID_ARGUMENT, "NaN vertex");
+    expect_error(sd_bind(arm.rig, V, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "NaN vertex");
     ids[3] = 1;
-    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b), SD_ERR_INVALID_ARGUMENT, "sweep out of range");
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "sweep out of range");
     ids[3] = 0;
     w[4] = -1.0f;
-    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b), SD_ERR_INVALID_ARGUMENT, "negative weight");
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "negative weight");
     w[4] = 0.0f;
-    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b), SD_ERR_INVALID_ARGUMENT, "no weight");
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "no weight");
     w[4] = 1.0f;
     std::vector<int32_t> bone_ids(V, 7);
-    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 1, bone_ids.data(), w.data(), &b), SD_ERR_INVALID_ARGUMENT, "bone out of range");
-    expect_error(sd_bind(arm.rig, 0, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b), SD_ERR_INVALID_ARGUMENT, "zero vertices");
-    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, nullptr, w.data(), 0, nullptr, nullptr, &b), SD_ERR_INVALID_ARGUMENT, "NULL ids");
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 1, bone_ids.data(), w.data(), &b),
+                 SD_ERR_INVALID_ARGUMENT, "bone out of range");
+    expect_error(sd_bind(arm.rig, 0, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "zero vertices");
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, nullptr, w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "NULL ids");
     EXPECT_EQ(b, nullptr);
 }
 
@@ -221,7 +235,8 @@ TEST(CApi, ARigReadBackIsTheRigThatWasSaved) {
     ASSERT_EQ(sd_rig_create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data(), &rig), SD_OK);
     ASSERT_EQ(sd_rig_add_sweep(rig, 7, arm.centers.data(), arm.orientations.data(), arm.half_axes.data(),
                                arm.bones.data(), arm.joint_parents.data(), arm.fractions.data(), nullptr),
-              SD_OK) << sd_last_error();
+              SD_OK)
+        << sd_last_error();
     const auto blob_of = [](const sd_rig* r) {
         int64_t n = 0;
         sd_rig_serialize(r, nullptr, 0, &n);
@@ -236,7 +251,8 @@ TEST(CApi, ARigReadBackIsTheRigThatWasSaved) {
     std::vector<int32_t> ids(arm.vertex_count(), 0);
     std::vector<float> w(arm.vertex_count(), 1.0f);
     sd_binding* b = nullptr;
-    ASSERT_EQ(sd_bind(rig, arm.vertex_count(), arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b), SD_OK);
+    ASSERT_EQ(sd_bind(rig, arm.vertex_count(), arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+              SD_OK);
     sd_deformer* d = nullptr;
     EXPECT_EQ(sd_deformer_create(loaded, b, &d), SD_OK) << sd_last_error();
     sd_deformer_destroy(d);
@@ -272,9 +288,11 @@ TEST(CApi, BindingOfAnotherRigIsAMismatch) {
     AbiArm arm, other;
     other.half_axes[0] = 0.11f;
     sd_rig* rig2 = nullptr;
-    ASSERT_EQ(sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &rig2), SD_OK);
+    ASSERT_EQ(sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &rig2),
+              SD_OK);
     ASSERT_EQ(sd_rig_add_sweep(rig2, 7, other.centers.data(), other.orientations.data(), other.half_axes.data(),
-                               other.bones.data(), other.joint_parents.data(), other.fractions.data(), nullptr), SD_OK);
+                               other.bones.data(), other.joint_parents.data(), other.fractions.data(), nullptr),
+              SD_OK);
     sd_binding* b = nullptr;
     ASSERT_EQ(arm.bind(&b), SD_OK);
     sd_deformer* d = nullptr;
@@ -296,7 +314,8 @@ TEST(CApi, EvaluatesTheSweepAndItsVolume) {
     ASSERT_EQ(sd_rig_sweep_rest_volume(arm.rig, 0, &v), SD_OK);
     EXPECT_NEAR(v, M_PI * 0.1 * 0.07 * 2.0, 1e-6);
     const float bad[1] = {1.5f};
-    expect_error(sd_rig_evaluate_sweep(arm.rig, 0, 1, bad, c, nullptr, nullptr, nullptr, nullptr), SD_ERR_INVALID_ARGUMENT, "u out of range");
+    expect_error(sd_rig_evaluate_sweep(arm.rig, 0, 1, bad, c, nullptr, nullptr, nullptr, nullptr),
+                 SD_ERR_INVALID_ARGUMENT, "u out of range");
 }
 
 }  // namespace

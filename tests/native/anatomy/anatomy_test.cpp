@@ -93,9 +93,10 @@ TEST(TriangleIntersection, AnalyticCases) {
     EXPECT_TRUE(tt({0, 0, 0, 4, 0, 0, 0, 4, 0, /**/ 1, 1, -1, 1, 1, 1, 1, 2, 1}));  // piercing edge
     // Touching: a vertex on the face, an edge on an edge, a vertex on a vertex.
     EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 0.5, 0.5, 0, 1, 1, 1, 0, 1, 2}));
-    EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 1, -1, 0, 1, 1, 0, 1, 0, 1}));  // edge across the face, in the plane on one side
+    EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 1, -1, 0, 1, 1, 0, 1, 0,
+                    1}));  // edge across the face, in the plane on one side
     EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 1, 0, 0, 1, -1, 1, 3, -1, 1}));  // vertex on an edge
-    EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 2, 0, 0, 3, 0, 1, 3, 1, 1}));  // vertex on a vertex
+    EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 2, 0, 0, 3, 0, 1, 3, 1, 1}));    // vertex on a vertex
     // Coplanar: overlapping, one inside the other, sharing only an edge segment, disjoint.
     EXPECT_TRUE(tt({0, 0, 0, 2, 0, 0, 0, 2, 0, /**/ 1, 1, 0, -1, 1, 0, 1, -1, 0}));
     EXPECT_TRUE(tt({0, 0, 0, 4, 0, 0, 0, 4, 0, /**/ 1, 1, 0, 2, 1, 0, 1, 2, 0}));
@@ -145,7 +146,9 @@ V3 sub(const V3& a, const V3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]
 V3 add(const V3& a, const V3& b) { return {a[0] + b[0], a[1] + b[1], a[2] + b[2]}; }
 V3 mul(const V3& a, double s) { return {a[0] * s, a[1] * s, a[2] * s}; }
 double dot(const V3& a, const V3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-V3 cross(const V3& a, const V3& b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+V3 cross(const V3& a, const V3& b) {
+    return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
 
 /// Squared distance between segments (Ericson, Real-Time Collision Detection, 5.1.9).
 double segment_segment_d2(const V3& p1, const V3& q1, const V3& p2, const V3& q2) {
@@ -235,7 +238,8 @@ TEST(TriangleIntersection, MatchesAnIndependentReferenceOnIntegerSoups) {
         const V3 n = cross(sub(t[1], t[0]), sub(t[2], t[0]));
         degenerate += dot(n, n) == 0;
     }
-    std::printf("integer soup: 200000 pairs, %d intersecting, %d coplanar, %d degenerate\n", hits, coplanar, degenerate);
+    std::printf("integer soup: 200000 pairs, %d intersecting, %d coplanar, %d degenerate\n", hits, coplanar,
+                degenerate);
     EXPECT_GT(hits, 10000);
     EXPECT_GT(degenerate, 1000);
 }
@@ -336,7 +340,8 @@ std::vector<float> flex_pose(const Skeleton& sk, int upper, int lower, const dve
 size_t pairs_within(const std::vector<TrianglePair>& pairs, const std::vector<int32_t>& region) {
     size_t n = 0;
     for (const TrianglePair& p : pairs)
-        n += std::binary_search(region.begin(), region.end(), p.a) && std::binary_search(region.begin(), region.end(), p.b);
+        n += std::binary_search(region.begin(), region.end(), p.a) &&
+             std::binary_search(region.begin(), region.end(), p.b);
     return n;
 }
 
@@ -423,9 +428,10 @@ TEST(Anatomy, BentTubeIntersectsWithSweepsAndLinearBlendSkinningButNotAfterFoldi
     const double v0 = tube.volume(arm.mesh.data());
     const double v_sweep = tube.volume(sweep.data()) / v0 - 1.0, v_anat = tube.volume(out.data()) / v0 - 1.0;
     const AnatomyStats& st = anatomy.stats();
-    std::printf("bent tube 150 deg: intersecting pairs: sweeps %zu, linear blend skinning %zu, after folding %zu "
-                "(%d before folding this frame, %d passes); volume vs rest: sweeps %+.2f %%, with effects %+.2f %%\n",
-                sweep_pairs, lbs_pairs, brute.size(), st.pairs_before, st.folding_iterations, 100 * v_sweep, 100 * v_anat);
+    std::printf(
+        "bent tube 150 deg: intersecting pairs: sweeps %zu, linear blend skinning %zu, after folding %zu "
+        "(%d before folding this frame, %d passes); volume vs rest: sweeps %+.2f %%, with effects %+.2f %%\n",
+        sweep_pairs, lbs_pairs, brute.size(), st.pairs_before, st.folding_iterations, 100 * v_sweep, 100 * v_anat);
     EXPECT_GT(sweep_pairs, 0u);
     EXPECT_GT(lbs_pairs, 0u);
     EXPECT_EQ(brute.size(), 0u);
@@ -481,7 +487,8 @@ TEST(Anatomy, ProxyMeshesMustBeClosedAndStarShaped) {
     open.triangles.resize(open.triangles.size() - 3);  // a hole
     EXPECT_THROW(BoneProxy(0, 1.0, open, "open"), InvalidInput);
     ProxyShape flipped = ok;  // inward: accepted, turned outward
-    for (size_t t = 0; t < flipped.triangles.size(); t += 3) std::swap(flipped.triangles[t + 1], flipped.triangles[t + 2]);
+    for (size_t t = 0; t < flipped.triangles.size(); t += 3)
+        std::swap(flipped.triangles[t + 1], flipped.triangles[t + 2]);
     EXPECT_NO_THROW(BoneProxy(0, 1.0, flipped, "flipped"));
     // A U-shaped solid (not star-shaped about its centroid): two boxes joined by a bar.
     ProxyShape u;
@@ -523,7 +530,7 @@ struct Human {
     io::Character c;
     fit::FitResult fit;
     Binding binding;
-    std::vector<int> elbows, knees;  // lower links (left first)
+    std::vector<int> elbows, knees;                            // lower links (left first)
     std::vector<std::pair<int, int>> elbow_links, knee_links;  // (upper, lower)
     dvec3 forward{0, -1, 0};
 };
@@ -535,8 +542,8 @@ Human load_human(const std::string& file, bool weld) {
     o.weld = weld;
     h.c = io::load_gltf_character(data_file(file), o);
     const int B = static_cast<int>(h.c.bone_names.size());
-    const Skeleton sk = Skeleton::from_arrays(B, h.c.bone_parents.data(), h.c.bone_rest.data(),
-                                              h.c.bone_heads.data(), h.c.bone_tails.data());
+    const Skeleton sk = Skeleton::from_arrays(B, h.c.bone_parents.data(), h.c.bone_rest.data(), h.c.bone_heads.data(),
+                                              h.c.bone_tails.data());
     fit::FitInput in;
     in.vertex_count = static_cast<int>(h.c.positions.size() / 3);
     in.positions = h.c.positions.data();
@@ -613,7 +620,8 @@ TEST_P(AnatomyCharacter, FoldsVolumeAndProtrusionAtElbowAndKneeFlexion) {
         anatomy.deform(d, rest.data(), out.data());
         double worst = 0.0;
         for (int v = 0; v < V; ++v) worst = std::max(worst, glm::length(at(out, v) - at(plain, v)));
-        std::printf("  rest pose: effects move the skin by at most %.2e (pairs %d)\n", worst, anatomy.stats().pairs_before);
+        std::printf("  rest pose: effects move the skin by at most %.2e (pairs %d)\n", worst,
+                    anatomy.stats().pairs_before);
         EXPECT_LE(worst, 1e-5);
     }
 
@@ -671,15 +679,17 @@ TEST_P(AnatomyCharacter, FoldsVolumeAndProtrusionAtElbowAndKneeFlexion) {
         }
         const ClosedRegion two_links(mesh, links);
         const double vl0 = two_links.volume(h.c.positions.data());
-        const double vl = two_links.volume(out.data()) / vl0 - 1.0, vl_plain = two_links.volume(plain.data()) / vl0 - 1.0;
+        const double vl = two_links.volume(out.data()) / vl0 - 1.0,
+                     vl_plain = two_links.volume(plain.data()) / vl0 - 1.0;
 
-        std::printf("  %s %3.0f deg: pairs in the joint region: linear blend %3zu, sweeps %3zu, with effects %zu "
-                    "(%d found this frame, %d passes; %zu in all regions) | limb volume vs rest: sweeps %+.2f %%, "
-                    "with effects %+.2f %% (upper+lower link only: %+.2f %% / %+.2f %%) | bulge %.1f mm, "
-                    "protrusion %.1f mm, deepest fold %.1f mm | %.2f ms\n",
-                    cs.knee ? "knee " : "elbow", cs.degrees, lbs_pairs, sweep_pairs, after, st.pairs_before,
-                    st.folding_iterations, everywhere.size(), 100 * vs_plain, 100 * vs, 100 * vl_plain, 100 * vl,
-                    1e3 * st.max_bulge, 1e3 * st.max_protrusion, 1e3 * st.max_fold_depth, st.ms_total);
+        std::printf(
+            "  %s %3.0f deg: pairs in the joint region: linear blend %3zu, sweeps %3zu, with effects %zu "
+            "(%d found this frame, %d passes; %zu in all regions) | limb volume vs rest: sweeps %+.2f %%, "
+            "with effects %+.2f %% (upper+lower link only: %+.2f %% / %+.2f %%) | bulge %.1f mm, "
+            "protrusion %.1f mm, deepest fold %.1f mm | %.2f ms\n",
+            cs.knee ? "knee " : "elbow", cs.degrees, lbs_pairs, sweep_pairs, after, st.pairs_before,
+            st.folding_iterations, everywhere.size(), 100 * vs_plain, 100 * vs, 100 * vl_plain, 100 * vl,
+            1e3 * st.max_bulge, 1e3 * st.max_protrusion, 1e3 * st.max_fold_depth, st.ms_total);
         EXPECT_EQ(after, 0u) << (cs.knee ? "knee " : "elbow ") << cs.degrees;
         EXPECT_EQ(everywhere.size(), 0u);
         EXPECT_LT(std::abs(vs), 0.01) << (cs.knee ? "knee " : "elbow ") << cs.degrees;
@@ -709,9 +719,10 @@ TEST_P(AnatomyCharacter, FoldsVolumeAndProtrusionAtElbowAndKneeFlexion) {
                 stand_out = std::max(stand_out, glm::length(at(out, v) - at(off, v)));
             }
             const double radius = J.ellipse_radius(e);
-            std::printf("  elbow 150 deg: the olecranon pushes the skin %.1f mm out (%.0f %% of the elbow's %.1f mm "
-                        "radius there); %.1f mm against the same frames without it\n",
-                        1e3 * push, 100 * push / radius, 1e3 * radius, 1e3 * stand_out);
+            std::printf(
+                "  elbow 150 deg: the olecranon pushes the skin %.1f mm out (%.0f %% of the elbow's %.1f mm "
+                "radius there); %.1f mm against the same frames without it\n",
+                1e3 * push, 100 * push / radius, 1e3 * radius, 1e3 * stand_out);
             // Plausible: a visible point (more than 2 % of the radius), no bone more than 60 % out.
             EXPECT_GT(push, 0.02 * radius);
             EXPECT_LT(push, 0.6 * radius);
@@ -747,7 +758,8 @@ struct AbiArm {
                 tails.push_back(static_cast<float>(sk.tails[b][k]));
             }
         }
-        EXPECT_EQ(sd_rig_create(sk.bone_count(), sk.parents.data(), rest.data(), heads.data(), tails.data(), &rig), SD_OK);
+        EXPECT_EQ(sd_rig_create(sk.bone_count(), sk.parents.data(), rest.data(), heads.data(), tails.data(), &rig),
+                  SD_OK);
         std::vector<float> centers, orientations, half_axes, fractions;
         std::vector<int32_t> bones, parents;
         for (const KeyEllipse& k : arm.rig.sweeps[0].keys) {
@@ -786,24 +798,31 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
     AbiArm a;
     const float kNaN = std::numeric_limits<float>::quiet_NaN();
     sd_anatomy* an = nullptr;
-    expect_status(sd_anatomy_create(nullptr, a.binding, a.triangle_count(), a.tris.data(), &an), SD_ERR_INVALID_ARGUMENT, "NULL rig");
+    expect_status(sd_anatomy_create(nullptr, a.binding, a.triangle_count(), a.tris.data(), &an),
+                  SD_ERR_INVALID_ARGUMENT, "NULL rig");
     expect_status(sd_anatomy_create(a.rig, a.binding, 0, a.tris.data(), &an), SD_ERR_INVALID_ARGUMENT, "no triangles");
-    expect_status(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), nullptr, &an), SD_ERR_INVALID_ARGUMENT, "NULL triangles");
+    expect_status(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), nullptr, &an), SD_ERR_INVALID_ARGUMENT,
+                  "NULL triangles");
     std::vector<int32_t> bad = a.tris;
     bad[5] = a.arm.vertex_count();
-    expect_status(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), bad.data(), &an), SD_ERR_INVALID_ARGUMENT, "index out of range");
+    expect_status(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), bad.data(), &an), SD_ERR_INVALID_ARGUMENT,
+                  "index out of range");
     bad[5] = -1;
-    expect_status(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), bad.data(), &an), SD_ERR_INVALID_ARGUMENT, "negative index");
+    expect_status(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), bad.data(), &an), SD_ERR_INVALID_ARGUMENT,
+                  "negative index");
     EXPECT_EQ(an, nullptr);
     {  // a binding made for another rig
         AbiArm other;
         sd_rig* thick = nullptr;
         ASSERT_EQ(sd_rig_clone(other.rig, &thick), SD_OK);
-        std::vector<float> c = {0, 0, 0, 1, 0, 0}, q = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f}, ab = {0.2f, 0.2f, 0.2f, 0.2f},
-                           fr = {0.5f, 0.5f, 0.5f, 0.5f};
+        std::vector<float> c = {0, 0, 0, 1, 0, 0}, q = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f},
+                           ab = {0.2f, 0.2f, 0.2f, 0.2f}, fr = {0.5f, 0.5f, 0.5f, 0.5f};
         std::vector<int32_t> bones = {0, 0}, par = {-1, -1};
-        ASSERT_EQ(sd_rig_add_sweep(thick, 2, c.data(), q.data(), ab.data(), bones.data(), par.data(), fr.data(), nullptr), SD_OK);
-        expect_status(sd_anatomy_create(thick, a.binding, a.triangle_count(), a.tris.data(), &an), SD_ERR_MISMATCH, "other rig");
+        ASSERT_EQ(
+            sd_rig_add_sweep(thick, 2, c.data(), q.data(), ab.data(), bones.data(), par.data(), fr.data(), nullptr),
+            SD_OK);
+        expect_status(sd_anatomy_create(thick, a.binding, a.triangle_count(), a.tris.data(), &an), SD_ERR_MISMATCH,
+                      "other rig");
         sd_rig_destroy(thick);
     }
     ASSERT_EQ(sd_anatomy_create(a.rig, a.binding, a.triangle_count(), a.tris.data(), &an), SD_OK) << sd_last_error();
@@ -811,15 +830,21 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
     const float front[3] = {0, 1, 0}, nan3[3] = {kNaN, 0, 0}, along[3] = {1, 0, 0};
     int32_t joint = -1;
     expect_status(sd_anatomy_add_joint(an, 1, 7, front, &joint), SD_ERR_INVALID_ARGUMENT, "bad kind");
-    expect_status(sd_anatomy_add_joint(an, 9, SD_JOINT_KIND_ELBOW, front, &joint), SD_ERR_INVALID_ARGUMENT, "bone out of range");
-    expect_status(sd_anatomy_add_joint(an, 0, SD_JOINT_KIND_ELBOW, front, &joint), SD_ERR_INVALID_ARGUMENT, "no joint key on bone 0");
-    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, nullptr, &joint), SD_ERR_INVALID_ARGUMENT, "elbow without direction");
-    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, nan3, &joint), SD_ERR_INVALID_ARGUMENT, "NaN direction");
-    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, along, &joint), SD_ERR_INVALID_ARGUMENT, "direction along the link");
+    expect_status(sd_anatomy_add_joint(an, 9, SD_JOINT_KIND_ELBOW, front, &joint), SD_ERR_INVALID_ARGUMENT,
+                  "bone out of range");
+    expect_status(sd_anatomy_add_joint(an, 0, SD_JOINT_KIND_ELBOW, front, &joint), SD_ERR_INVALID_ARGUMENT,
+                  "no joint key on bone 0");
+    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, nullptr, &joint), SD_ERR_INVALID_ARGUMENT,
+                  "elbow without direction");
+    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, nan3, &joint), SD_ERR_INVALID_ARGUMENT,
+                  "NaN direction");
+    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, along, &joint), SD_ERR_INVALID_ARGUMENT,
+                  "direction along the link");
     EXPECT_EQ(sd_anatomy_joint_count(an), 0);
     expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_ELBOW, front, &joint), SD_OK, "elbow");
     EXPECT_EQ(joint, 0);
-    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_GENERIC, nullptr, nullptr), SD_ERR_INVALID_ARGUMENT, "twice");
+    expect_status(sd_anatomy_add_joint(an, 1, SD_JOINT_KIND_GENERIC, nullptr, nullptr), SD_ERR_INVALID_ARGUMENT,
+                  "twice");
     EXPECT_EQ(sd_anatomy_joint_count(an), 1);
     EXPECT_EQ(sd_anatomy_joint_count(nullptr), -1);
 
@@ -828,9 +853,12 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
     EXPECT_EQ(effects, SD_EFFECT_FOLDING | SD_EFFECT_PROTRUSION | SD_EFFECT_BULGE);
     expect_status(sd_anatomy_set_joint_effects(an, 0, 8), SD_ERR_INVALID_ARGUMENT, "bad effects");
     expect_status(sd_anatomy_set_joint_effects(an, 1, 1), SD_ERR_INVALID_ARGUMENT, "bad joint");
-    expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_BULGE_STRENGTH, 2.0f), SD_ERR_INVALID_ARGUMENT, "strength > 1");
-    expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_BULGE_FALLOFF, 0.0f), SD_ERR_INVALID_ARGUMENT, "falloff 0");
-    expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_PROTRUSION_STRENGTH, kNaN), SD_ERR_INVALID_ARGUMENT, "NaN");
+    expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_BULGE_STRENGTH, 2.0f), SD_ERR_INVALID_ARGUMENT,
+                  "strength > 1");
+    expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_BULGE_FALLOFF, 0.0f), SD_ERR_INVALID_ARGUMENT,
+                  "falloff 0");
+    expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_PROTRUSION_STRENGTH, kNaN),
+                  SD_ERR_INVALID_ARGUMENT, "NaN");
     expect_status(sd_anatomy_set_joint_parameter(an, 0, 99, 1.0f), SD_ERR_INVALID_ARGUMENT, "unknown parameter");
     expect_status(sd_anatomy_set_joint_parameter(an, 0, SD_JOINT_PARAM_BULGE_STRENGTH, 0.25f), SD_OK, "strength");
     float value = 0.0f;
@@ -840,7 +868,8 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
     expect_status(sd_anatomy_set_folding_iterations(an, 0), SD_ERR_INVALID_ARGUMENT, "iterations");
 
     // A user proxy: an octahedron is fine, an open one is not.
-    const float octa[] = {0.2f, 0, -0.05f, 1.2f, 0, -0.05f, 1, 0.03f, -0.05f, 1, -0.03f, -0.05f, 1, 0, -0.02f, 1, 0, -0.09f};
+    const float octa[] = {0.2f, 0,      -0.05f, 1.2f, 0, -0.05f, 1, 0.03f, -0.05f,
+                          1,    -0.03f, -0.05f, 1,    0, -0.02f, 1, 0,     -0.09f};
     const int32_t faces[] = {0, 2, 4, 2, 1, 4, 1, 3, 4, 3, 0, 4, 2, 0, 5, 1, 2, 5, 3, 1, 5, 0, 3, 5};
     expect_status(sd_anatomy_set_joint_proxy(an, 0, 6, octa, 7, faces, 1.0f), SD_ERR_INVALID_ARGUMENT, "open proxy");
     expect_status(sd_anatomy_set_joint_proxy(an, 0, 6, octa, 8, faces, 1.5f), SD_ERR_INVALID_ARGUMENT, "fraction");
@@ -850,11 +879,14 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
     std::vector<float> out(a.arm.mesh.size());
     const int32_t V = a.arm.vertex_count();
     expect_status(sd_deform_with_anatomy(a.deformer, an, 2, pose.data(), V, out.data()), SD_ERR_MISMATCH, "bone count");
-    expect_status(sd_deform_with_anatomy(a.deformer, an, 3, pose.data(), V + 1, out.data()), SD_ERR_MISMATCH, "vertex count");
+    expect_status(sd_deform_with_anatomy(a.deformer, an, 3, pose.data(), V + 1, out.data()), SD_ERR_MISMATCH,
+                  "vertex count");
     std::vector<float> nan_pose = pose;
     nan_pose[5] = kNaN;
-    expect_status(sd_deform_with_anatomy(a.deformer, an, 3, nan_pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT, "NaN pose");
-    expect_status(sd_deform_with_anatomy(nullptr, an, 3, pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT, "NULL deformer");
+    expect_status(sd_deform_with_anatomy(a.deformer, an, 3, nan_pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT,
+                  "NaN pose");
+    expect_status(sd_deform_with_anatomy(nullptr, an, 3, pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT,
+                  "NULL deformer");
     {
         AbiArm same;  // another deformer of an identical rig is fine
         expect_status(sd_deform_with_anatomy(same.deformer, an, 3, pose.data(), V, out.data()), SD_OK, "same rig");
@@ -863,7 +895,9 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
         std::vector<float> c = {0, 0, 0, 1, 0, 0}, q = {0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f, 0.5f},
                            ab = {0.2f, 0.2f, 0.2f, 0.2f}, fr = {0.5f, 0.5f, 0.5f, 0.5f};
         std::vector<int32_t> bones = {0, 0}, par = {-1, -1};
-        ASSERT_EQ(sd_rig_add_sweep(thick, 2, c.data(), q.data(), ab.data(), bones.data(), par.data(), fr.data(), nullptr), SD_OK);
+        ASSERT_EQ(
+            sd_rig_add_sweep(thick, 2, c.data(), q.data(), ab.data(), bones.data(), par.data(), fr.data(), nullptr),
+            SD_OK);
         sd_binding* b2 = nullptr;
         sd_deformer* d2 = nullptr;
         std::vector<int32_t> ids(2 * V, -1);
@@ -872,7 +906,8 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
             ids[2 * v] = 0;
             w[2 * v] = 1.0f;
         }
-        ASSERT_EQ(sd_bind(thick, V, a.arm.mesh.data(), 2, ids.data(), w.data(), 0, nullptr, nullptr, &b2), SD_OK) << sd_last_error();
+        ASSERT_EQ(sd_bind(thick, V, a.arm.mesh.data(), 2, ids.data(), w.data(), 0, nullptr, nullptr, &b2), SD_OK)
+            << sd_last_error();
         ASSERT_EQ(sd_deformer_create(thick, b2, &d2), SD_OK);
         expect_status(sd_deform_with_anatomy(d2, an, 3, pose.data(), V, out.data()), SD_ERR_MISMATCH, "another rig");
         sd_deformer_destroy(d2);
@@ -881,12 +916,14 @@ TEST(AnatomyAbi, InvalidInputIsRefusedWithAMessage) {
     }
     std::vector<float> nan_positions(out.size(), 0.0f);
     nan_positions[7] = kNaN;
-    expect_status(sd_anatomy_apply(an, nullptr, 3, pose.data(), V, nan_positions.data()), SD_ERR_INVALID_ARGUMENT, "NaN positions");
+    expect_status(sd_anatomy_apply(an, nullptr, 3, pose.data(), V, nan_positions.data()), SD_ERR_INVALID_ARGUMENT,
+                  "NaN positions");
     double stats[SD_STAT_COUNT];
     expect_status(sd_anatomy_get_stats(an, SD_STAT_COUNT + 1, stats), SD_ERR_INVALID_ARGUMENT, "too many stats");
     expect_status(sd_anatomy_get_volume_offsets(an, 2, stats), SD_ERR_MISMATCH, "sweep count");
     int32_t pairs = -1;
-    expect_status(sd_anatomy_count_intersections(an, V - 1, out.data(), &pairs), SD_ERR_MISMATCH, "count: vertex count");
+    expect_status(sd_anatomy_count_intersections(an, V - 1, out.data(), &pairs), SD_ERR_MISMATCH,
+                  "count: vertex count");
     sd_anatomy_destroy(an);
     sd_anatomy_destroy(nullptr);
 }
@@ -904,15 +941,17 @@ TEST(AnatomyAbi, BentArmThroughTheAbi) {
     int32_t before = 0, after = -1;
     ASSERT_EQ(sd_anatomy_count_intersections(an, V, plain.data(), &before), SD_OK);
     // Two ways to the same frame: the combined call, and sd_deform then sd_anatomy_apply.
-    for (int frame = 0; frame < 6; ++frame) ASSERT_EQ(sd_deform_with_anatomy(a.deformer, an, 3, pose.data(), V, out.data()), SD_OK);
+    for (int frame = 0; frame < 6; ++frame)
+        ASSERT_EQ(sd_deform_with_anatomy(a.deformer, an, 3, pose.data(), V, out.data()), SD_OK);
     ASSERT_EQ(sd_anatomy_count_intersections(an, V, out.data(), &after), SD_OK);
     double stats[SD_STAT_COUNT];
     ASSERT_EQ(sd_anatomy_get_stats(an, SD_STAT_COUNT, stats), SD_OK);
     std::vector<double> offsets(1);
     ASSERT_EQ(sd_anatomy_get_volume_offsets(an, 1, offsets.data()), SD_OK);
-    std::printf("ABI, arm at 150 deg: %d pairs before, %d after; stats: pairs %g -> %g in %g passes, I_C %.3g, total %.3f ms\n",
-                before, after, stats[SD_STAT_PAIRS_BEFORE], stats[SD_STAT_PAIRS_AFTER],
-                stats[SD_STAT_FOLDING_ITERATIONS], offsets[0], stats[SD_STAT_MS_TOTAL]);
+    std::printf(
+        "ABI, arm at 150 deg: %d pairs before, %d after; stats: pairs %g -> %g in %g passes, I_C %.3g, total %.3f ms\n",
+        before, after, stats[SD_STAT_PAIRS_BEFORE], stats[SD_STAT_PAIRS_AFTER], stats[SD_STAT_FOLDING_ITERATIONS],
+        offsets[0], stats[SD_STAT_MS_TOTAL]);
     EXPECT_GT(before, 0);
     EXPECT_EQ(after, 0);
     EXPECT_EQ(stats[SD_STAT_PAIRS_AFTER], 0.0);

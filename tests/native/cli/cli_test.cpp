@@ -31,10 +31,10 @@ using namespace sd::io;
 
 const fs::path kData = SWEEPDEFORM_SHARED_DATA_DIR;
 
-#define REQUIRE_DATA()                                                                   \
-  do {                                                                                   \
-    if (!fs::is_directory(kData / "mocap") || !fs::is_directory(kData / "humans"))       \
-      GTEST_SKIP() << "../shared/data not found: skipped";                               \
+#define REQUIRE_DATA()                                                             \
+  do {                                                                             \
+    if (!fs::is_directory(kData / "mocap") || !fs::is_directory(kData / "humans")) \
+      GTEST_SKIP() << "../shared/data not found: skipped";                         \
   } while (false)
 
 glm::dmat4 mat(const float* m) {
@@ -56,9 +56,13 @@ fs::path scratch(const std::string& name) {
 
 std::string two_joint_bvh(const std::string& root_channels, const std::string& child_channels,
                           const std::string& motion) {
-  return "HIERARCHY\nROOT Hips\n{\n  OFFSET 1 2 3\n  CHANNELS " + root_channels + "\n  JOINT Arm\n  {\n"
-         "    OFFSET 0 5 0\n    CHANNELS " + child_channels + "\n    End Site\n    {\n      OFFSET 0 0 4\n    }\n"
-         "  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.05\n" + motion;
+  return "HIERARCHY\nROOT Hips\n{\n  OFFSET 1 2 3\n  CHANNELS " + root_channels +
+         "\n  JOINT Arm\n  {\n"
+         "    OFFSET 0 5 0\n    CHANNELS " +
+         child_channels +
+         "\n    End Site\n    {\n      OFFSET 0 0 4\n    }\n"
+         "  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.05\n" +
+         motion;
 }
 
 glm::dmat4 axis_rot(char axis, double deg) {
@@ -94,7 +98,8 @@ TEST(BvhReader, PositionChannelsRestPoseEndSitesAndWrappedRows) {
   // Root with positions (absolute local position), a child with a position channel too,
   // motion rows wrapped over lines, tabs and a missing space after ':'.
   const std::string text =
-      "HIERARCHY\nROOT hip\n{\n\tOFFSET 0 0 0\n\tCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
+      "HIERARCHY\nROOT hip\n{\n\tOFFSET 0 0 0\n\tCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation "
+      "Xrotation\n"
       "\tJOINT abdomen\n\t{\n\t\tOFFSET 0 10 0\n\t\tCHANNELS 4 Yposition Zrotation Xrotation Yrotation\n"
       "\t\tEnd Site\n\t\t{\n\t\t\tOFFSET 0 3 0\n\t\t}\n\t}\n}\nMOTION\nFrames:\t3\nFrame Time:\t0.0083333\n"
       "1 2 3 0 0 0\n 7 0 0 0\n4 5 6 90 0 0 12 0 0 0\n0 0 0 0 0 0 0 0 0 0\n";
@@ -127,14 +132,15 @@ std::string error_of(const std::string& text) {
 }
 
 TEST(BvhReader, ClearErrorsWithLineNumbers) {
-  const std::string good = two_joint_bvh("3 Zrotation Yrotation Xrotation", "3 Zrotation Yrotation Xrotation",
-                                         "0 0 0 0 0 0\n1 2 3 4 5 6\n");
+  const std::string good =
+      two_joint_bvh("3 Zrotation Yrotation Xrotation", "3 Zrotation Yrotation Xrotation", "0 0 0 0 0 0\n1 2 3 4 5 6\n");
   ASSERT_EQ(error_of(good), "");
   EXPECT_NE(error_of("").find("empty file"), std::string::npos);
   EXPECT_NE(error_of("ply\nformat ascii 1.0\n").find("not a BVH file"), std::string::npos);
   std::string s = good;
   s.replace(s.find("0 0 0 0 0 0\n1 2 3 4 5 6\n"), 24, "0 0 0 0 0 0\n1 2 3\n");
-  EXPECT_NE(error_of(s).find("truncated motion: expected 12 values (2 frames x 6 channels), found 9"), std::string::npos)
+  EXPECT_NE(error_of(s).find("truncated motion: expected 12 values (2 frames x 6 channels), found 9"),
+            std::string::npos)
       << error_of(s);
   s = good;
   s.replace(s.find("Xrotation"), 9, "Wrotation");
@@ -256,7 +262,8 @@ TEST(BvhRetarget, ReproducesTheDataSetsAnimsGlb) {
       // Ours differs from the glb only by a constant vertical offset of every bone (zero for
       // clips whose root OFFSET is not (0,0,0)).
       const std::vector<float> mine = ours.pose(4 * k - 4);
-      const double dz = mine[16 * static_cast<size_t>(map.root_bone) + 14] - ref[16 * static_cast<size_t>(map.root_bone) + 14];
+      const double dz =
+          mine[16 * static_cast<size_t>(map.root_bone) + 14] - ref[16 * static_cast<size_t>(map.root_bone) + 14];
       for (size_t b = 0; b < anims.bone_names.size(); ++b) {
         if (anims.bone_parents[b] < 0) continue;  // "Root", above the hips: never moves
         EXPECT_NEAR(mine[16 * b + 12], ref[16 * b + 12], 2e-4);
@@ -264,8 +271,8 @@ TEST(BvhRetarget, ReproducesTheDataSetsAnimsGlb) {
         EXPECT_NEAR(mine[16 * b + 14] - dz, ref[16 * b + 14], 2e-4);
       }
     }
-    std::printf("[ retarget ] %-42s vs %s: max bone rotation difference %.3f deg, head %.3f mm\n", p.clip,
-                p.animation, worst_rot, 1e3 * worst_pos);
+    std::printf("[ retarget ] %-42s vs %s: max bone rotation difference %.3f deg, head %.3f mm\n", p.clip, p.animation,
+                worst_rot, 1e3 * worst_pos);
     EXPECT_LT(worst_rot, 0.1);   // float storage and quaternion sampling of the glb
     EXPECT_LT(worst_pos, 2e-4);  // 0.2 mm
   }
@@ -277,8 +284,8 @@ TEST(BvhRetarget, ZeroOffsetRootsStandOnTheFloor) {
   const auto bone = [&](const char* n) {
     return static_cast<size_t>(std::find(mh.bone_names.begin(), mh.bone_names.end(), n) - mh.bone_names.begin());
   };
-  for (const char* file : {"cmu_01_01_playground_jumps.bvh", "cmu_02_02_walk_daz.bvh", "cmu_60_01_salsa_lead_daz_scaled.bvh",
-                           "cmu_07_01_walk.bvh"}) {
+  for (const char* file : {"cmu_01_01_playground_jumps.bvh", "cmu_02_02_walk_daz.bvh",
+                           "cmu_60_01_salsa_lead_daz_scaled.bvh", "cmu_07_01_walk.bvh"}) {
     SCOPED_TRACE(file);
     const BvhClip clip = load_bvh((kData / "mocap" / file).string());
     const BvhRetarget r(clip, mh, map_bvh_to_character(clip, mh));
@@ -298,9 +305,9 @@ TEST(BvhRetarget, ZeroOffsetRootsStandOnTheFloor) {
 TEST(BvhRetarget, NoMatchingBoneIsAClearError) {
   REQUIRE_DATA();
   const Character mh = load_gltf_character((kData / "humans/mh_male_game_engine.glb").string());
-  const BvhClip clip = parse_bvh(two_joint_bvh("3 Zrotation Yrotation Xrotation", "3 Zrotation Yrotation Xrotation",
-                                               "0 0 0 0 0 0\n0 0 0 0 0 0\n"),
-                                 "odd.bvh");
+  const BvhClip clip = parse_bvh(
+      two_joint_bvh("3 Zrotation Yrotation Xrotation", "3 Zrotation Yrotation Xrotation", "0 0 0 0 0 0\n0 0 0 0 0 0\n"),
+      "odd.bvh");
   BvhClip renamed = clip;
   renamed.joints[0].name = "Torso";
   renamed.joints[1].name = "Limb";
@@ -343,14 +350,16 @@ std::string chain_bvh(const std::vector<std::string>& names) {
 TEST(BvhRetarget, MixamoNamesKeepTheirSpine) {
   REQUIRE_DATA();
   const Character mh = load_gltf_character((kData / "humans/mh_male_game_engine.glb").string());
-  std::vector<std::string> names = {"Hips", "Spine", "Spine1", "Spine2", "Neck", "Head", "LeftShoulder", "LeftArm",
-                                    "LeftForeArm", "LeftHand", "LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToeBase"};
+  std::vector<std::string> names = {"Hips",      "Spine",        "Spine1",   "Spine2",      "Neck",
+                                    "Head",      "LeftShoulder", "LeftArm",  "LeftForeArm", "LeftHand",
+                                    "LeftUpLeg", "LeftLeg",      "LeftFoot", "LeftToeBase"};
   for (auto& n : names) n = "mixamorig:" + n;
   const BvhClip clip = parse_bvh(chain_bvh(names), "mixamo.bvh");
   const BvhBoneMap m = map_bvh_to_character(clip, mh);
   EXPECT_EQ(m.source_convention, "Mixamo");
   const auto joint_of = [&](const char* bone) {
-    const auto b = static_cast<size_t>(std::find(mh.bone_names.begin(), mh.bone_names.end(), bone) - mh.bone_names.begin());
+    const auto b =
+        static_cast<size_t>(std::find(mh.bone_names.begin(), mh.bone_names.end(), bone) - mh.bone_names.begin());
     return m.source[b] < 0 ? std::string("-") : clip.joints[static_cast<size_t>(m.source[b])].name;
   };
   EXPECT_EQ(joint_of("spine_01"), "mixamorig:Spine");
@@ -434,7 +443,8 @@ std::vector<float> skin(const Character& c, const float* pose) {
     glm::dvec4 p(0.0);
     for (int k = 0; k < 4; ++k)
       p += double(c.skin_weights[4 * v + k]) *
-           (m[static_cast<size_t>(c.skin_joints[4 * v + k])] * glm::dvec4(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2], 1.0));
+           (m[static_cast<size_t>(c.skin_joints[4 * v + k])] *
+            glm::dvec4(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2], 1.0));
     for (int k = 0; k < 3; ++k) out[3 * v + k] = static_cast<float>(p[k]);
   }
   return out;
@@ -444,8 +454,9 @@ TEST(Tool, DeformsMakeHumanByARunClipIntoPlausibleFrames) {
   REQUIRE_DATA();
   const fs::path dir = scratch("run");
   const std::string pc2 = (dir / "run.pc2").string(), poses = (dir / "run.poses").string();
-  const ToolRun r = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' -o '" + pc2 +
-                         "' --frames 0:160:8 --write-poses '" + poses + "' --report '" + (dir / "fit.json").string() + "'");
+  const ToolRun r =
+      run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' -o '" + pc2 +
+               "' --frames 0:160:8 --write-poses '" + poses + "' --report '" + (dir / "fit.json").string() + "'");
   std::printf("%s", r.out.c_str());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("ms per frame"), std::string::npos);
@@ -482,8 +493,10 @@ TEST(Tool, DeformsMakeHumanByARunClipIntoPlausibleFrames) {
     EXPECT_GT(zmax - zmin, 1.2f) << "frame " << f;  // 1.75 m tall, running
     EXPECT_LT(zmax - zmin, 2.0f) << "frame " << f;
   }
-  std::printf("[ tool ] 21 frames of 09_11 vs linear blend skinning of the same poses: worst frame mean %.1f mm, "
-              "p99 %.1f mm\n", 1e3 * worst_mean, 1e3 * worst_p99);
+  std::printf(
+      "[ tool ] 21 frames of 09_11 vs linear blend skinning of the same poses: worst frame mean %.1f mm, "
+      "p99 %.1f mm\n",
+      1e3 * worst_mean, 1e3 * worst_p99);
   EXPECT_LT(worst_mean, 0.015);
   EXPECT_LT(worst_p99, 0.06);
   const float* first = d.samples.data();
@@ -493,7 +506,8 @@ TEST(Tool, DeformsMakeHumanByARunClipIntoPlausibleFrames) {
   // The same poses from the pose file give the same frames (the add-on's tests feed Blender's
   // pose_bone.matrix this way).
   const std::string pc2b = (dir / "from_poses.pc2").string();
-  const ToolRun r2 = run_tool("'" + human("mh_male_game_engine.glb") + "' --pose-file '" + poses + "' -o '" + pc2b + "' -q");
+  const ToolRun r2 =
+      run_tool("'" + human("mh_male_game_engine.glb") + "' --pose-file '" + poses + "' -o '" + pc2b + "' -q");
   ASSERT_EQ(r2.code, 0) << r2.out;
   EXPECT_EQ(r2.out, "");
   const Pc2Data d2 = read_pc2(pc2b);
@@ -506,7 +520,7 @@ TEST(Tool, ObjSequenceAndObjCharacterWithASkeleton) {
   const fs::path dir = scratch("obj");
   // The character as an OBJ (Y-up, as Blender exports it) and the glb as its skeleton.
   const ToolRun r = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_07_01_walk.bvh") + "' -o '" +
-                         (dir / "walk_###.obj").string() + "' --frames 0:100:50 -q");
+                             (dir / "walk_###.obj").string() + "' --frames 0:100:50 -q");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* f : {"walk_000.obj", "walk_050.obj", "walk_100.obj"}) EXPECT_TRUE(fs::exists(dir / f)) << f;
   const MeshData frame0 = read_mesh((dir / "walk_000.obj").string());
@@ -522,15 +536,17 @@ TEST(Tool, ObjSequenceAndObjCharacterWithASkeleton) {
   }
   write_obj((dir / "body.obj").string(), yup.data(), yup.size() / 3, mh.triangles);
   const ToolRun a = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_07_01_walk.bvh") + "' -o '" +
-                         (dir / "glb.pc2").string() + "' --frames 0:100:25 -q");
-  const ToolRun b = run_tool("'" + (dir / "body.obj").string() + "' --skeleton '" + human("mh_male_game_engine.glb") + "' '" +
-                         clip("cmu_07_01_walk.bvh") + "' -o '" + (dir / "obj.pc2").string() + "' --frames 0:100:25 -q");
+                             (dir / "glb.pc2").string() + "' --frames 0:100:25 -q");
+  const ToolRun b =
+      run_tool("'" + (dir / "body.obj").string() + "' --skeleton '" + human("mh_male_game_engine.glb") + "' '" +
+               clip("cmu_07_01_walk.bvh") + "' -o '" + (dir / "obj.pc2").string() + "' --frames 0:100:25 -q");
   ASSERT_EQ(a.code, 0) << a.out;
   ASSERT_EQ(b.code, 0) << b.out;
   const Pc2Data da = read_pc2((dir / "glb.pc2").string()), db = read_pc2((dir / "obj.pc2").string());
   ASSERT_EQ(da.samples.size(), db.samples.size());
   double worst = 0.0;
-  for (size_t i = 0; i < da.samples.size(); ++i) worst = std::max(worst, double(std::abs(da.samples[i] - db.samples[i])));
+  for (size_t i = 0; i < da.samples.size(); ++i)
+    worst = std::max(worst, double(std::abs(da.samples[i] - db.samples[i])));
   EXPECT_LT(worst, 1e-4) << "OBJ + skeleton must deform like the glTF it came from";
 }
 
@@ -544,8 +560,9 @@ TEST(Tool, PointsThroughTheDisplacementMap) {
     for (size_t i = 0; i < mh.positions.size(); i += 3 * 7)
       out << mh.positions[i] + 0.001f << ' ' << mh.positions[i + 2] << ' ' << -mh.positions[i + 1] << '\n';
   }
-  const ToolRun r = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' --points '" +
-                         (dir / "cloud.xyz").string() + "' -o '" + (dir / "cloud.pc2").string() + "' --frames 0:40:20");
+  const ToolRun r =
+      run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' --points '" +
+               (dir / "cloud.xyz").string() + "' -o '" + (dir / "cloud.pc2").string() + "' --frames 0:40:20");
   std::printf("%s", r.out.c_str());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("sweep influences on the map's surface"), std::string::npos);
@@ -566,33 +583,38 @@ TEST(Tool, ErrorsAndExitCodes) {
   EXPECT_EQ(missing.code, 2);
   EXPECT_NE(missing.out.find("character '/nonexistent/char.glb' does not exist"), std::string::npos) << missing.out;
   if (!fs::is_directory(kData / "humans")) GTEST_SKIP() << "../shared/data not found: the rest skipped";
-  std::ofstream((dir / "bad.bvh").string()) << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xrotation Yrotation Zrotation\n}\n"
-                                               "MOTION\nFrames: 3\nFrame Time: 0.01\n0 0 0\n1 1\n";
+  std::ofstream((dir / "bad.bvh").string())
+      << "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 3 Xrotation Yrotation Zrotation\n}\n"
+         "MOTION\nFrames: 3\nFrame Time: 0.01\n0 0 0\n1 1\n";
   const ToolRun bad = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + (dir / "bad.bvh").string() + "' -o '" +
-                           (dir / "x.pc2").string() + "'");
+                               (dir / "x.pc2").string() + "'");
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.out.find("bad BVH"), std::string::npos) << bad.out;
   EXPECT_NE(bad.out.find("truncated motion"), std::string::npos) << bad.out;
-  std::ofstream((dir / "odd.bvh").string()) << "HIERARCHY\nROOT Torso\n{\n OFFSET 0 0 0\n CHANNELS 3 Xrotation Yrotation Zrotation\n"
-                                               " End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0\n";
+  std::ofstream((dir / "odd.bvh").string())
+      << "HIERARCHY\nROOT Torso\n{\n OFFSET 0 0 0\n CHANNELS 3 Xrotation Yrotation Zrotation\n"
+         " End Site\n {\n  OFFSET 0 1 0\n }\n}\nMOTION\nFrames: 1\nFrame Time: 0.01\n0 0 0\n";
   const ToolRun odd = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + (dir / "odd.bvh").string() + "' -o '" +
-                           (dir / "x.pc2").string() + "'");
+                               (dir / "x.pc2").string() + "'");
   EXPECT_EQ(odd.code, 3);
   EXPECT_NE(odd.out.find("no bone of the character matches"), std::string::npos) << odd.out;
-  const ToolRun frames = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' -o '" +
-                              (dir / "x.pc2").string() + "' --frames 100:900");
+  const ToolRun frames = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") +
+                                  "' -o '" + (dir / "x.pc2").string() + "' --frames 100:900");
   EXPECT_EQ(frames.code, 1);
   EXPECT_NE(frames.out.find("outside the motion's 0..165"), std::string::npos) << frames.out;
   std::ofstream((dir / "short.poses").string()) << "0123456789";
-  const ToolRun pf = run_tool("'" + human("mh_male_game_engine.glb") + "' --pose-file '" + (dir / "short.poses").string() + "' -o '" +
-                          (dir / "x.pc2").string() + "'");
+  const ToolRun pf = run_tool("'" + human("mh_male_game_engine.glb") + "' --pose-file '" +
+                              (dir / "short.poses").string() + "' -o '" + (dir / "x.pc2").string() + "'");
   EXPECT_EQ(pf.code, 2);
   EXPECT_NE(pf.out.find("not a multiple of 3392 (53 bones x 16 float32)"), std::string::npos) << pf.out;
-  const ToolRun obj = run_tool("'" + (dir / "x.obj").string() + "' '" + clip("cmu_09_11_run.bvh") + "' -o '" + (dir / "x.pc2").string() + "'");
+  const ToolRun obj = run_tool("'" + (dir / "x.obj").string() + "' '" + clip("cmu_09_11_run.bvh") + "' -o '" +
+                               (dir / "x.pc2").string() + "'");
   EXPECT_EQ(obj.code, 2);
-  const ToolRun noskel = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' -o '/proc/x/y.pc2'");
+  const ToolRun noskel =
+      run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_09_11_run.bvh") + "' -o '/proc/x/y.pc2'");
   EXPECT_EQ(noskel.code, 5) << noskel.out;
-  const ToolRun list = run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_02_02_walk_daz.bvh") + "' --list-bones");
+  const ToolRun list =
+      run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_02_02_walk_daz.bvh") + "' --list-bones");
   EXPECT_EQ(list.code, 0);
   EXPECT_NE(list.out.find("upperarm_l               lShldr"), std::string::npos) << list.out;
 }

@@ -44,8 +44,7 @@ TEST(Deform, BindingKeepsTheOutOfPlaneOffset) {
     const dvec3 v(0.731, 0.05, -0.02);
     const SweepInfluence inf = bind_to_sweep(s, 0, sample_planes(s), v);
     const dvec3 back = s.rest_geometry.center(inf.span, inf.u) +
-                       s.rest_geometry.rotation(inf.span, inf.u) *
-                           dvec3(inf.local[0], inf.local[1], inf.local[2]);
+                       s.rest_geometry.rotation(inf.span, inf.u) * dvec3(inf.local[0], inf.local[1], inf.local[2]);
     EXPECT_LT(glm::length(back - v), 1e-7);
     EXPECT_LT(std::abs(inf.local[2]), 1e-3);  // and c_V is small, as the paper says
 }
@@ -78,7 +77,7 @@ TEST(Deform, ElbowKeyBisectsTheJoint) {
     std::vector<dquat> q;
     pose_keys(s, pose, c, q);
     const dvec3 n = glm::mat3_cast(q[3])[2];
-    EXPECT_LT(glm::length(c[3] - dvec3(1, 0, 0)), 1e-12);  // stays at the joint
+    EXPECT_LT(glm::length(c[3] - dvec3(1, 0, 0)), 1e-12);              // stays at the joint
     EXPECT_LT(glm::length(n - glm::normalize(dvec3(1, 1, 0))), 1e-9);  // 45° of the 90° bend
 }
 
@@ -142,8 +141,7 @@ TEST(Deform, BlendWeightsZeroOrOneReproduceEachSweepAlone) {
     };
     const auto only0 = run(bind_with(1, 0)), only1 = run(bind_with(0, 1)), mix = run(bind_with(0.3f, 0.7f));
     for (size_t v = 0; v < arm.mesh.size() / 3; ++v)
-        for (int i = 0; i < 3; ++i)
-            EXPECT_NEAR(mix[3 * v + i], 0.3 * only0[3 * v + i] + 0.7 * only1[3 * v + i], 2e-6);
+        for (int i = 0; i < 3; ++i) EXPECT_NEAR(mix[3 * v + i], 0.3 * only0[3 * v + i] + 0.7 * only1[3 * v + i], 2e-6);
     EXPECT_GT(max_distance(only0, only1), 1e-3);  // the two sweeps really differ
 }
 

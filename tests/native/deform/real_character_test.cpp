@@ -17,12 +17,10 @@ namespace {
 
 using testing::diagonal;
 
-std::string data_file(const std::string& name) {
-    return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name;
-}
+std::string data_file(const std::string& name) { return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name; }
 
-#define REQUIRE_DATA(path)                                                              \
-    if (!std::filesystem::exists(path))                                                 \
+#define REQUIRE_DATA(path)              \
+    if (!std::filesystem::exists(path)) \
     GTEST_SKIP() << "../shared/data not found (" << path << "): real-character test skipped"
 
 class RealCharacter : public ::testing::TestWithParam<const char*> {};
@@ -40,9 +38,11 @@ TEST_P(RealCharacter, RestPoseRoundTripAndPlausibleMotion) {
     const double diag = diagonal(c.positions);
     double worst = 0.0;
     for (int v = 0; v < V; ++v)
-        worst = std::max(worst, glm::length(dvec3(out[3 * v] - c.positions[3 * v], out[3 * v + 1] - c.positions[3 * v + 1],
-                                                  out[3 * v + 2] - c.positions[3 * v + 2])));
-    std::printf("%s: %d vertices, rest round trip max error %.3g (%.3g x diagonal)\n", GetParam(), V, worst, worst / diag);
+        worst =
+            std::max(worst, glm::length(dvec3(out[3 * v] - c.positions[3 * v], out[3 * v + 1] - c.positions[3 * v + 1],
+                                              out[3 * v + 2] - c.positions[3 * v + 2])));
+    std::printf("%s: %d vertices, rest round trip max error %.3g (%.3g x diagonal)\n", GetParam(), V, worst,
+                worst / diag);
     EXPECT_LE(worst, 1e-6 * diag);
 
     // Motion-capture poses of the same skeleton: the result stays close to linear blend
@@ -58,11 +58,12 @@ TEST_P(RealCharacter, RestPoseRoundTripAndPlausibleMotion) {
             d.deform(pose.data(), out.data());
             SkeletonPose sp;
             sp.set(rig.rig.skeleton, pose.data());
-            skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(),
-                               c.skin_weights.data(), lbs.data());
+            skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
+                               lbs.data());
             double mean = 0.0, max = 0.0;
             for (int v = 0; v < V; ++v) {
-                const double e = glm::length(dvec3(out[3 * v] - lbs[3 * v], out[3 * v + 1] - lbs[3 * v + 1], out[3 * v + 2] - lbs[3 * v + 2]));
+                const double e = glm::length(
+                    dvec3(out[3 * v] - lbs[3 * v], out[3 * v + 1] - lbs[3 * v + 1], out[3 * v + 2] - lbs[3 * v + 2]));
                 ASSERT_TRUE(std::isfinite(e));
                 mean += e / V;
                 max = std::max(max, e);

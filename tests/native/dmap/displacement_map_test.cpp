@@ -50,8 +50,6 @@ ErrorStats distances(const std::vector<float>& a, const std::vector<float>& b) {
     return s;
 }
 
-
-
 /// A straight rig: one bone along +x from 0 to L, one sweep of K keys along it, ellipse
 /// half-axes (a, b) along y and z.
 Rig straight_rig(double L, int K, double a, double b) {
@@ -98,7 +96,8 @@ Tube tube_with_known_d(double L, double a, double b, int around, int along) {
             const dvec3 d = known_d(theta, t);
             // local (major y, minor z, normal x) -> world (x, y, z)
             const dvec3 local = dvec3(a * std::cos(theta), b * std::sin(theta), 0.0) + d;
-            m.positions.insert(m.positions.end(), {static_cast<float>(L * t), static_cast<float>(local.x), static_cast<float>(local.y)});
+            m.positions.insert(m.positions.end(),
+                               {static_cast<float>(L * t), static_cast<float>(local.x), static_cast<float>(local.y)});
         }
     for (int j = 0; j + 1 < along; ++j)
         for (int i = 0; i < around; ++i) {
@@ -133,8 +132,8 @@ TEST(DisplacementMapAnalytic, RecoversAKnownSmoothField) {
     o.theta_cells = 24;
     o.t_cells_per_span = 4;
     o.smoothing = 1e-4;
-    const DisplacementMap m = DisplacementMap::fit(rig, binding, static_cast<int>(tube.triangles.size() / 3),
-                                                   tube.triangles.data(), o);
+    const DisplacementMap m =
+        DisplacementMap::fit(rig, binding, static_cast<int>(tube.triangles.size() / 3), tube.triangles.data(), o);
     ASSERT_EQ(m.sweep_count(), 1);
     const DisplacementFitStats& st = m.stats(0);
     EXPECT_EQ(st.samples, 64 * 60);
@@ -171,8 +170,8 @@ TEST(DisplacementMapAnalytic, OpenSubdivLimitIsTheUniformBicubicBSpline) {
     o.theta_cells = 8;
     o.t_cells_per_span = 2;
     o.smoothing = 0.0;
-    const DisplacementMap m = DisplacementMap::fit(rig, binding, static_cast<int>(tube.triangles.size() / 3),
-                                                   tube.triangles.data(), o);
+    const DisplacementMap m =
+        DisplacementMap::fit(rig, binding, static_cast<int>(tube.triangles.size() / 3), tube.triangles.data(), o);
     // Inside one face, along θ: the 4th finite difference of a cubic vanishes.
     const int N = 8, M = 2 * 2 + 1;
     for (int face_i = 0; face_i < N; ++face_i)
@@ -188,7 +187,8 @@ TEST(DisplacementMapAnalytic, OpenSubdivLimitIsTheUniformBicubicBSpline) {
     // C2 across a face boundary in θ: second differences from both sides agree.
     const double t = 0.5, th = 3 * 2 * kPi / N, e = 1e-3;
     const dvec3 left = m.displacement(0, th - 2 * e, t) - 2.0 * m.displacement(0, th - e, t) + m.displacement(0, th, t);
-    const dvec3 right = m.displacement(0, th, t) - 2.0 * m.displacement(0, th + e, t) + m.displacement(0, th + 2 * e, t);
+    const dvec3 right =
+        m.displacement(0, th, t) - 2.0 * m.displacement(0, th + e, t) + m.displacement(0, th + 2 * e, t);
     EXPECT_LT(glm::length(left - right), 1e-7);
     double w[4];
     bspline(0.5, w);
@@ -214,10 +214,11 @@ TEST(DisplacementMapAnalytic, SurfaceBindReproducesTheMapAndExactBindTheMesh) {
         d.deform(rest, out.data());
         double worst = 0.0;
         for (size_t i = 0; i < out.size(); i += 3)
-            worst = std::max(worst, glm::length(dvec3(out[i], out[i + 1], out[i + 2]) -
-                                                dvec3(fine.positions[i], fine.positions[i + 1], fine.positions[i + 2])));
-        std::printf("[ analytic ] %s bind of a finer tube, rest error max %.2e\n",
-                    snap > 0.0 ? "surface" : "exact", worst);
+            worst =
+                std::max(worst, glm::length(dvec3(out[i], out[i + 1], out[i + 2]) -
+                                            dvec3(fine.positions[i], fine.positions[i + 1], fine.positions[i + 2])));
+        std::printf("[ analytic ] %s bind of a finer tube, rest error max %.2e\n", snap > 0.0 ? "surface" : "exact",
+                    worst);
         EXPECT_LT(worst, snap == 0.0 ? 1e-5 : 1e-4);
     }
 }
@@ -298,17 +299,18 @@ TEST(DisplacementMapAbi, FitEvaluateBindThroughBlobs) {
     const int T = static_cast<int>(tube.triangles.size() / 3);
     sd_displacement_map* map = nullptr;
     // Errors: messages from sd_dmap_last_error(), outputs untouched.
-    EXPECT_EQ(sd_dmap_fit(nullptr, 0, bb.data(), static_cast<int64_t>(bb.size()), T, tube.triangles.data(), 0, 0, -1.0f, &map),
+    EXPECT_EQ(sd_dmap_fit(nullptr, 0, bb.data(), static_cast<int64_t>(bb.size()), T, tube.triangles.data(), 0, 0, -1.0f,
+                          &map),
               SD_ERR_INVALID_ARGUMENT);
     EXPECT_NE(std::string(sd_dmap_last_error()).find("rig blob"), std::string::npos) << sd_dmap_last_error();
     std::vector<uint8_t> corrupt = rb;
     corrupt[corrupt.size() / 2] ^= 0x5a;
-    EXPECT_EQ(sd_dmap_fit(corrupt.data(), static_cast<int64_t>(corrupt.size()), bb.data(), static_cast<int64_t>(bb.size()), T,
-                          tube.triangles.data(), 0, 0, -1.0f, &map),
+    EXPECT_EQ(sd_dmap_fit(corrupt.data(), static_cast<int64_t>(corrupt.size()), bb.data(),
+                          static_cast<int64_t>(bb.size()), T, tube.triangles.data(), 0, 0, -1.0f, &map),
               SD_ERR_CORRUPT_DATA);
     const std::vector<uint8_t> other = serialize_rig(straight_rig(1.0, 3, kA, kB));
-    EXPECT_EQ(sd_dmap_fit(other.data(), static_cast<int64_t>(other.size()), bb.data(), static_cast<int64_t>(bb.size()), T,
-                          tube.triangles.data(), 0, 0, -1.0f, &map),
+    EXPECT_EQ(sd_dmap_fit(other.data(), static_cast<int64_t>(other.size()), bb.data(), static_cast<int64_t>(bb.size()),
+                          T, tube.triangles.data(), 0, 0, -1.0f, &map),
               SD_ERR_INVALID_ARGUMENT);
     std::printf("[ abi ] binding of another rig: %s\n", sd_dmap_last_error());
     EXPECT_NE(std::string(sd_dmap_last_error()).find("rig"), std::string::npos) << sd_dmap_last_error();
@@ -353,7 +355,8 @@ TEST(DisplacementMapAbi, FitEvaluateBindThroughBlobs) {
     for (float snap : {SD_DMAP_SNAP_EXACT, SD_DMAP_SNAP_DEFAULT, SD_DMAP_SNAP_SURFACE}) {
         sd_dmap_binding* dmap_binding = nullptr;
         int32_t snapped = -1;
-        ASSERT_EQ(sd_dmap_bind(map, N, fine.positions.data(), snap, &snapped, &dmap_binding), SD_OK) << sd_dmap_last_error();
+        ASSERT_EQ(sd_dmap_bind(map, N, fine.positions.data(), snap, &snapped, &dmap_binding), SD_OK)
+            << sd_dmap_last_error();
         EXPECT_EQ(snapped, snap == SD_DMAP_SNAP_EXACT ? 0 : N);  // the tube is single-valued everywhere
         // The blob: size query, then fill into the caller's buffer.
         int64_t size = 0;
@@ -409,8 +412,8 @@ Fitted fit_character(io::Character c) {
     Fitted f;
     fit::FitInput in;
     const int B = static_cast<int>(c.bone_names.size());
-    in.skeleton = Skeleton::from_arrays(B, c.bone_parents.data(), c.bone_rest.data(), c.bone_heads.data(),
-                                        c.bone_tails.data());
+    in.skeleton =
+        Skeleton::from_arrays(B, c.bone_parents.data(), c.bone_rest.data(), c.bone_heads.data(), c.bone_tails.data());
     in.vertex_count = static_cast<int>(c.positions.size() / 3);
     in.positions = c.positions.data();
     in.triangle_count = static_cast<int>(c.triangles.size() / 3);
@@ -458,8 +461,8 @@ TEST(DisplacementMapCharacter, FitsEverySweepOfMakeHuman) {
     REQUIRE_DATA(kData + "/humans/mh_male_game_engine.glb");
     const Fitted& f = makehuman();
     const auto t0 = std::chrono::steady_clock::now();
-    const DisplacementMap m = DisplacementMap::fit(f.rig, f.binding, static_cast<int>(f.c.triangles.size() / 3),
-                                                   f.c.triangles.data());
+    const DisplacementMap m =
+        DisplacementMap::fit(f.rig, f.binding, static_cast<int>(f.c.triangles.size() / 3), f.c.triangles.data());
     const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::printf("[ makehuman ] map of %d sweeps fitted in %.0f ms\n", m.sweep_count(), ms);
     for (int s = 0; s < m.sweep_count(); ++s) {
@@ -469,7 +472,6 @@ TEST(DisplacementMapCharacter, FitsEverySweepOfMakeHuman) {
         EXPECT_GT(st.samples, 100);
     }
 }
-
 
 /// Distances over several poses between two deformations of the same points.
 ErrorStats posed_distances(const Rig& rig, const Binding& a, const Binding& b,
@@ -515,10 +517,11 @@ TEST(DisplacementMapCharacter, SubdividedMakeHumanThroughTheMapStaysNearADirectB
         const Binding through = m.bind(f.rig, N, fine.positions.data(), snap, &snapped, &influences);
         const ErrorStats rest = distances(deform(f.rig, through, poses[0]), fine.positions);
         const ErrorStats posed = posed_distances(f.rig, through, exact, poses);
-        std::printf("[ makehuman ] %-9s %5.1f %% of influences on the map; vs the direct bind over %zu poses: "
-                    "mean %.2f mm, p99 %.2f mm, max %.1f mm (rest: mean %.2f, max %.1f mm)\n",
-                    snap_name(snap), 100.0 * snapped / influences, poses.size(), 1e3 * posed.mean, 1e3 * posed.p99,
-                    1e3 * posed.max, 1e3 * rest.mean, 1e3 * rest.max);
+        std::printf(
+            "[ makehuman ] %-9s %5.1f %% of influences on the map; vs the direct bind over %zu poses: "
+            "mean %.2f mm, p99 %.2f mm, max %.1f mm (rest: mean %.2f, max %.1f mm)\n",
+            snap_name(snap), 100.0 * snapped / influences, poses.size(), 1e3 * posed.mean, 1e3 * posed.p99,
+            1e3 * posed.max, 1e3 * rest.mean, 1e3 * rest.max);
         if (snap == DisplacementMap::kDefaultSnap) {
             // Bounds: a refined vertex lies within about one base edge's sagitta of the base
             // surface, and the map fits the base vertices to 1-3 mm rms per sweep (see
@@ -544,9 +547,10 @@ TEST(DisplacementMapCharacter, SubdividedMakeHumanThroughTheMapStaysNearADirectB
         all_refit.insert(all_refit.end(), b.begin(), b.end());
     }
     const ErrorStats vs_refit = distances(all_map, all_refit);
-    std::printf("[ makehuman ] through the map vs a full re-fit + bind of the refined mesh (%.0f ms): mean %.2f mm, "
-                "p99 %.2f mm, max %.1f mm (another rig: its key ellipses fitted to other cross-sections)\n",
-                refit_ms, 1e3 * vs_refit.mean, 1e3 * vs_refit.p99, 1e3 * vs_refit.max);
+    std::printf(
+        "[ makehuman ] through the map vs a full re-fit + bind of the refined mesh (%.0f ms): mean %.2f mm, "
+        "p99 %.2f mm, max %.1f mm (another rig: its key ellipses fitted to other cross-sections)\n",
+        refit_ms, 1e3 * vs_refit.mean, 1e3 * vs_refit.p99, 1e3 * vs_refit.max);
 }
 
 TEST(DisplacementMapCharacter, PointCloudDeformsLikeTheMesh) {
@@ -559,8 +563,9 @@ TEST(DisplacementMapCharacter, PointCloudDeformsLikeTheMesh) {
     const auto P = [&](const std::vector<float>& p, int v) { return dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); };
     for (int t = 0; t < T; ++t) {
         const int* tri = f.c.triangles.data() + 3 * t;
-        area[static_cast<size_t>(t)] = 0.5 * glm::length(glm::cross(P(f.c.positions, tri[1]) - P(f.c.positions, tri[0]),
-                                                                     P(f.c.positions, tri[2]) - P(f.c.positions, tri[0])));
+        area[static_cast<size_t>(t)] =
+            0.5 * glm::length(glm::cross(P(f.c.positions, tri[1]) - P(f.c.positions, tri[0]),
+                                         P(f.c.positions, tri[2]) - P(f.c.positions, tri[0])));
     }
     std::mt19937 rng(2005);
     std::discrete_distribution<int> pick(area.begin(), area.end());
@@ -594,14 +599,16 @@ TEST(DisplacementMapCharacter, PointCloudDeformsLikeTheMesh) {
                 const int* tri = f.c.triangles.data() + 3 * tri_of[i];
                 const dvec3 q = bary[i].x * P(meshes[k], tri[0]) + bary[i].y * P(meshes[k], tri[1]) +
                                 bary[i].z * P(meshes[k], tri[2]);
-                all_interp.insert(all_interp.end(), {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
+                all_interp.insert(all_interp.end(),
+                                  {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
             }
             all_points.insert(all_points.end(), pts.begin(), pts.end());
         }
         const ErrorStats e = distances(all_points, all_interp);
-        std::printf("[ makehuman ] point cloud of %d points (%s), %zu poses, vs the barycentric interpolation of "
-                    "the deformed mesh: mean %.2f mm, p99 %.2f mm, max %.1f mm\n", n, snap_name(snap), poses.size(),
-                    1e3 * e.mean, 1e3 * e.p99, 1e3 * e.max);
+        std::printf(
+            "[ makehuman ] point cloud of %d points (%s), %zu poses, vs the barycentric interpolation of "
+            "the deformed mesh: mean %.2f mm, p99 %.2f mm, max %.1f mm\n",
+            n, snap_name(snap), poses.size(), 1e3 * e.mean, 1e3 * e.p99, 1e3 * e.max);
         // Bounds. exact: a point inside a triangle follows the sweeps with the triangle's
         // weights; the flat deformed triangle differs by its sagitta (sub-mm) except across
         // the few triangles whose corners the core binds to far-apart parts of the torso

@@ -26,9 +26,7 @@
 namespace sd {
 namespace {
 
-std::string data_file(const std::string& name) {
-    return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name;
-}
+std::string data_file(const std::string& name) { return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name; }
 
 using character_fit::character_input;
 using character_fit::skeleton_of;
@@ -47,8 +45,8 @@ void turn_subtree(const Skeleton& s, std::vector<float>& pose, int bone, const d
         return m;
     };
     const dvec3 joint = dvec3(get(bone) * s.rest_inverse[bone] * dvec4(s.heads[bone], 1.0));
-    const dmat4 turn = glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), angle, axis) *
-                       glm::translate(dmat4(1.0), -joint);
+    const dmat4 turn =
+        glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), angle, axis) * glm::translate(dmat4(1.0), -joint);
     for (int b = 0; b < s.bone_count(); ++b) {
         if (!below(s, b, bone)) continue;
         const dmat4 p = turn * get(b);
@@ -57,14 +55,14 @@ void turn_subtree(const Skeleton& s, std::vector<float>& pose, int bone, const d
 }
 
 struct Figures {
-    double trunk_max = 0.0;       ///< largest distance to linear blend skinning, trunk vertices
+    double trunk_max = 0.0;  ///< largest distance to linear blend skinning, trunk vertices
     double trunk_mean = 0.0;
-    double dihedral_max = 0.0;    ///< largest change of a trunk edge's dihedral angle (radians)
-    double dihedral_lbs = 0.0;    ///< the same with linear blend skinning
+    double dihedral_max = 0.0;  ///< largest change of a trunk edge's dihedral angle (radians)
+    double dihedral_lbs = 0.0;  ///< the same with linear blend skinning
     int trunk = 0;
-    double shoulder_width = 0.0;  ///< distance between the shoulder joints
+    double shoulder_width = 0.0;                          ///< distance between the shoulder joints
     double band_dihedral = 0.0, band_dihedral_lbs = 0.0;  ///< the same where the arm weighs < 0.5
-    int64_t shoulder_pairs = 0, shoulder_pairs_lbs = 0;  ///< intersecting triangle pairs
+    int64_t shoulder_pairs = 0, shoulder_pairs_lbs = 0;   ///< intersecting triangle pairs
 };
 
 /// Dihedral angle change of every interior edge whose four vertices are all in `mask`.
@@ -168,8 +166,8 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
         trunk[v] = upper && arm_weight < 0.02;
         if (!trunk[v]) continue;
         ++f.trunk;
-        const double e = glm::length(dvec3(out[3 * v] - lbs[3 * v], out[3 * v + 1] - lbs[3 * v + 1],
-                                           out[3 * v + 2] - lbs[3 * v + 2]));
+        const double e = glm::length(
+            dvec3(out[3 * v] - lbs[3 * v], out[3 * v + 1] - lbs[3 * v + 1], out[3 * v + 2] - lbs[3 * v + 2]));
         f.trunk_max = std::max(f.trunk_max, e);
         f.trunk_mean += e;
     }
@@ -195,13 +193,14 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
     }
     f.shoulder_pairs = measure::intersecting_pairs(V, out.data(), T, c.triangles.data(), near);
     f.shoulder_pairs_lbs = measure::intersecting_pairs(V, lbs.data(), T, c.triangles.data(), near);
-    std::printf("%s, arms up %.0f deg: %d trunk vertices, distance to skinning max %.3g (%.1f %% of the shoulder "
-                "width) mean %.3g; largest dihedral change: trunk %.1f deg (skinning %.1f), shoulder band "
-                "%.1f deg (skinning %.1f); intersecting pairs near the shoulders %lld (skinning %lld)\n",
-                label.c_str(), degrees, f.trunk, f.trunk_max, 100.0 * f.trunk_max / f.shoulder_width,
-                f.trunk_mean, glm::degrees(f.dihedral_max), glm::degrees(f.dihedral_lbs),
-                glm::degrees(f.band_dihedral), glm::degrees(f.band_dihedral_lbs),
-                static_cast<long long>(f.shoulder_pairs), static_cast<long long>(f.shoulder_pairs_lbs));
+    std::printf(
+        "%s, arms up %.0f deg: %d trunk vertices, distance to skinning max %.3g (%.1f %% of the shoulder "
+        "width) mean %.3g; largest dihedral change: trunk %.1f deg (skinning %.1f), shoulder band "
+        "%.1f deg (skinning %.1f); intersecting pairs near the shoulders %lld (skinning %lld)\n",
+        label.c_str(), degrees, f.trunk, f.trunk_max, 100.0 * f.trunk_max / f.shoulder_width, f.trunk_mean,
+        glm::degrees(f.dihedral_max), glm::degrees(f.dihedral_lbs), glm::degrees(f.band_dihedral),
+        glm::degrees(f.band_dihedral_lbs), static_cast<long long>(f.shoulder_pairs),
+        static_cast<long long>(f.shoulder_pairs_lbs));
     if (const char* dir = std::getenv("SD_SHOULDER_DUMP")) {
         write_obj(std::string(dir) + "/" + label + "_sweep.obj", c, out);
         write_obj(std::string(dir) + "/" + label + "_lbs.obj", c, lbs);

@@ -25,11 +25,11 @@ using sd::io::Character;
 
 const fs::path kData = SWEEPDEFORM_SHARED_DATA_DIR;
 
-#define SKIP_WITHOUT_DATA()                                   \
-  do {                                                        \
-    if (!fs::is_directory(kData)) {                           \
-      GTEST_SKIP() << "../shared/data not found: skipped";    \
-    }                                                         \
+#define SKIP_WITHOUT_DATA()                                \
+  do {                                                     \
+    if (!fs::is_directory(kData)) {                        \
+      GTEST_SKIP() << "../shared/data not found: skipped"; \
+    }                                                      \
   } while (false)
 
 std::string human(const char* name) { return (kData / "humans" / name).string(); }
@@ -84,9 +84,15 @@ M4 inverse_affine(const M4& m) {
   const double a = m[0], b = m[4], c = m[8], d = m[1], e = m[5], f = m[9], g = m[2], h = m[6], i = m[10];
   const double det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g);
   M4 r{};
-  r[0] = (e * i - f * h) / det;  r[4] = (c * h - b * i) / det;  r[8] = (b * f - c * e) / det;
-  r[1] = (f * g - d * i) / det;  r[5] = (a * i - c * g) / det;  r[9] = (c * d - a * f) / det;
-  r[2] = (d * h - e * g) / det;  r[6] = (b * g - a * h) / det;  r[10] = (a * e - b * d) / det;
+  r[0] = (e * i - f * h) / det;
+  r[4] = (c * h - b * i) / det;
+  r[8] = (b * f - c * e) / det;
+  r[1] = (f * g - d * i) / det;
+  r[5] = (a * i - c * g) / det;
+  r[9] = (c * d - a * f) / det;
+  r[2] = (d * h - e * g) / det;
+  r[6] = (b * g - a * h) / det;
+  r[10] = (a * e - b * d) / det;
   for (int k = 0; k < 3; ++k) r[12 + k] = -(r[k] * m[12] + r[4 + k] * m[13] + r[8 + k] * m[14]);
   r[15] = 1;
   return r;
@@ -118,8 +124,9 @@ double signed_volume(const Character& c) {
     const float* a = &c.positions[3 * c.triangles[t]];
     const float* b = &c.positions[3 * c.triangles[t + 1]];
     const float* d = &c.positions[3 * c.triangles[t + 2]];
-    v += (a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0]) +
-          a[2] * (b[0] * d[1] - b[1] * d[0])) / 6.0;
+    v +=
+        (a[0] * (b[1] * d[2] - b[2] * d[1]) - a[1] * (b[0] * d[2] - b[2] * d[0]) + a[2] * (b[0] * d[1] - b[1] * d[0])) /
+        6.0;
   }
   return v;
 }
@@ -340,8 +347,7 @@ TEST(GltfLoader, WeldKeepsAClosedMesh) {
 class TinyGltfWriter {
  public:
   template <class T>
-  int add(const std::vector<T>& values, int component_type, const char* type, size_t count,
-          bool normalized = false) {
+  int add(const std::vector<T>& values, int component_type, const char* type, size_t count, bool normalized = false) {
     while (data_.size() % 4) data_.push_back(0);
     const size_t offset = data_.size();
     const auto* bytes = reinterpret_cast<const uint8_t*>(values.data());
@@ -350,9 +356,8 @@ class TinyGltfWriter {
     views_ += std::string(index ? "," : "") + "{\"buffer\":0,\"byteOffset\":" + std::to_string(offset) +
               ",\"byteLength\":" + std::to_string(values.size() * sizeof(T)) + "}";
     accessors_ += std::string(index ? "," : "") + "{\"bufferView\":" + std::to_string(index) +
-                  ",\"componentType\":" + std::to_string(component_type) + ",\"count\":" +
-                  std::to_string(count) + ",\"type\":\"" + type + "\"" +
-                  (normalized ? ",\"normalized\":true" : "") + "}";
+                  ",\"componentType\":" + std::to_string(component_type) + ",\"count\":" + std::to_string(count) +
+                  ",\"type\":\"" + type + "\"" + (normalized ? ",\"normalized\":true" : "") + "}";
     return index;
   }
   std::string json(const std::string& rest) const {
@@ -362,8 +367,7 @@ class TinyGltfWriter {
       uint32_t n = uint32_t(data_[i]) << 16;
       if (i + 1 < data_.size()) n |= uint32_t(data_[i + 1]) << 8;
       if (i + 2 < data_.size()) n |= data_[i + 2];
-      for (int k = 0; k < 4; ++k)
-        b64 += i + size_t(k) <= data_.size() ? abc[(n >> (18 - 6 * k)) & 63] : '=';
+      for (int k = 0; k < 4; ++k) b64 += i + size_t(k) <= data_.size() ? abc[(n >> (18 - 6 * k)) & 63] : '=';
     }
     return "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":" + std::to_string(data_.size()) +
            ",\"uri\":\"data:application/octet-stream;base64," + b64 + "\"}],\"bufferViews\":[" + views_ +
@@ -387,7 +391,7 @@ std::string write_synthetic_gltf(const std::string& name, int mode_of_b) {
   const int wgt_b = w.add(std::vector<uint16_t>{65535, 0, 0, 0, 65535, 0, 0, 0, 32768, 0, 0, 0}, 5123, "VEC4", 3, true);
   // Column-major inverse bind matrices: knee at (0, 1, 0), hip at the origin.
   const int ibm = w.add(std::vector<float>{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -1, 0, 1,
-                                           1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1},
+                                           1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0,  0, 1},
                         5126, "MAT4", 2);
   auto attrs = [](int p, int j, int wt) {
     return "{\"POSITION\":" + std::to_string(p) + ",\"JOINTS_0\":" + std::to_string(j) +
@@ -397,10 +401,12 @@ std::string write_synthetic_gltf(const std::string& name, int mode_of_b) {
       "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
       "\"nodes\":[{\"name\":\"Armature\",\"children\":[1,2]},{\"name\":\"body\",\"mesh\":0,\"skin\":0},"
       "{\"name\":\"hip\",\"children\":[3]},{\"name\":\"knee\",\"translation\":[0,1,0]}],"
-      "\"skins\":[{\"joints\":[3,2],\"inverseBindMatrices\":" + std::to_string(ibm) + "}],"
-      "\"meshes\":[{\"name\":\"body\",\"primitives\":[{\"attributes\":" + attrs(pos_a, jnt_a, wgt_a) +
-      ",\"indices\":" + std::to_string(idx_a) + "},{\"attributes\":" + attrs(pos_b, jnt_b, wgt_b) +
-      ",\"mode\":" + std::to_string(mode_of_b) + "}]}]";
+      "\"skins\":[{\"joints\":[3,2],\"inverseBindMatrices\":" +
+      std::to_string(ibm) +
+      "}],"
+      "\"meshes\":[{\"name\":\"body\",\"primitives\":[{\"attributes\":" +
+      attrs(pos_a, jnt_a, wgt_a) + ",\"indices\":" + std::to_string(idx_a) +
+      "},{\"attributes\":" + attrs(pos_b, jnt_b, wgt_b) + ",\"mode\":" + std::to_string(mode_of_b) + "}]}]";
   const fs::path path = fs::temp_directory_path() / name;
   std::ofstream(path) << w.json(rest);
   return path.string();
@@ -452,8 +458,7 @@ Character two_bone_rig() {
   t.rest_translation = {0, 0, 0, 0, 1, 0};
   t.rest_rotation = {0, 0, 0, 1, 0, 0, 0, 1};
   t.rest_scale = {1, 1, 1, 1, 1, 1};
-  t.rest_matrix = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1,
-                   1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1};
+  t.rest_matrix = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 1, 0, 1};
   t.bone_node = {0, 1};
   sd::io::Animation a;
   a.name = "test";
@@ -483,14 +488,14 @@ TEST(Animation, InterpolationModes) {
   auto child_angle = [&](const std::vector<float>& p) { return std::atan2(p[16 + 1], p[16 + 0]); };
 
   std::vector<float> p = sd::io::sample_pose(c, 0, 0.5);
-  EXPECT_NEAR(child_angle(p), pi / 4, 1e-6);        // slerp halfway
-  EXPECT_NEAR(p[12], 1.0, 1e-6);                     // Hermite midpoint
-  EXPECT_NEAR(p[16 + 13], 1.0, 1e-6);                // child stays 1 up from the root
+  EXPECT_NEAR(child_angle(p), pi / 4, 1e-6);  // slerp halfway
+  EXPECT_NEAR(p[12], 1.0, 1e-6);              // Hermite midpoint
+  EXPECT_NEAR(p[16 + 13], 1.0, 1e-6);         // child stays 1 up from the root
   p = sd::io::sample_pose(c, 0, 0.25);
-  EXPECT_NEAR(p[12], 2.0 * (3 * 0.0625 - 2 * 0.015625), 1e-6);  // smoothstep(0.25) * 2
-  EXPECT_NEAR(child_angle(sd::io::sample_pose(c, 0, -1.0)), 0.0, 1e-6);     // clamped
-  EXPECT_NEAR(child_angle(sd::io::sample_pose(c, 0, 7.0)), pi / 2, 1e-6);   // clamped
-  EXPECT_NEAR(child_angle(sd::io::sample_pose(c, -1, 0.5)), 0.0, 1e-6);     // no animation
+  EXPECT_NEAR(p[12], 2.0 * (3 * 0.0625 - 2 * 0.015625), 1e-6);             // smoothstep(0.25) * 2
+  EXPECT_NEAR(child_angle(sd::io::sample_pose(c, 0, -1.0)), 0.0, 1e-6);    // clamped
+  EXPECT_NEAR(child_angle(sd::io::sample_pose(c, 0, 7.0)), pi / 2, 1e-6);  // clamped
+  EXPECT_NEAR(child_angle(sd::io::sample_pose(c, -1, 0.5)), 0.0, 1e-6);    // no animation
 
   c.animations[0].channels[0].interpolation = sd::io::Channel::Interpolation::Step;
   EXPECT_NEAR(child_angle(sd::io::sample_pose(c, 0, 0.99)), 0.0, 1e-6);
@@ -509,7 +514,7 @@ TEST(Refine, MakeHumanOneLevel) {
   const Character r = sd::io::refine_catmull_clark(c, 1);
   EXPECT_EQ(sd::io::validate(r), "");
   EXPECT_EQ(num_vertices(r), 13380u + 40134u + 26756u);  // V + E + F = 80,270
-  EXPECT_EQ(r.triangles.size() / 3, 2u * 3u * 26756u);    // 3 quads per triangle, 2 triangles each
+  EXPECT_EQ(r.triangles.size() / 3, 2u * 3u * 26756u);   // 3 quads per triangle, 2 triangles each
   EXPECT_EQ(boundary_edges(r.triangles), 0u);
   EXPECT_NEAR(signed_volume(r), signed_volume(c), 0.02 * signed_volume(c));  // same orientation
   expect_weights_sum_to_one(r);

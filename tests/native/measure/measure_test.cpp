@@ -14,7 +14,8 @@ void uv_sphere(double r, int rings, int segments, std::vector<float>& p, std::ve
     for (int i = 1; i < rings; ++i)
         for (int j = 0; j < segments; ++j) {
             const double th = M_PI * i / rings, ph = 2 * M_PI * j / segments;
-            p.insert(p.end(), {float(r * std::sin(th) * std::cos(ph)), float(r * std::sin(th) * std::sin(ph)), float(r * std::cos(th))});
+            p.insert(p.end(), {float(r * std::sin(th) * std::cos(ph)), float(r * std::sin(th) * std::sin(ph)),
+                               float(r * std::cos(th))});
         }
     p.insert(p.end(), {0, 0, float(-r)});
     const int south = static_cast<int>(p.size() / 3) - 1;
@@ -39,9 +40,10 @@ TEST(Measure, SphereVolumeAndEquatorSection) {
     EXPECT_LT(v, 4.0 / 3.0 * M_PI * 0.125);
     const float points[6] = {0, 0, 0, 0.1f, 0, 0.2f}, normals[6] = {0, 0, 1, 1, 0, 0};
     double areas[2] = {0, 0};
-    ASSERT_EQ(sd_measure_cross_sections(V, p.data(), T, t.data(), 2, points, normals, 0.0f, areas), SD_OK) << sd_last_error();
+    ASSERT_EQ(sd_measure_cross_sections(V, p.data(), T, t.data(), 2, points, normals, 0.0f, areas), SD_OK)
+        << sd_last_error();
     EXPECT_NEAR(areas[0] / (M_PI * 0.25), 1.0, 2e-3);  // the equator
-    const double r2 = 0.25 - 0.01;                      // plane x = 0.1
+    const double r2 = 0.25 - 0.01;                     // plane x = 0.1
     EXPECT_NEAR(areas[1] / (M_PI * r2), 1.0, 5e-3);
 }
 
@@ -62,16 +64,21 @@ TEST(Measure, CountsIntersectingPairsExactly) {
     std::vector<int32_t> t;
     int64_t pairs = -1;
     both(1.2f, p, t);
-    ASSERT_EQ(sd_measure_intersections(2 * V, p.data(), static_cast<int32_t>(t.size() / 3), t.data(), 0, nullptr, &pairs), SD_OK);
+    ASSERT_EQ(
+        sd_measure_intersections(2 * V, p.data(), static_cast<int32_t>(t.size() / 3), t.data(), 0, nullptr, &pairs),
+        SD_OK);
     EXPECT_EQ(pairs, 0);
     both(0.8f, p, t);
-    ASSERT_EQ(sd_measure_intersections(2 * V, p.data(), static_cast<int32_t>(t.size() / 3), t.data(), 0, nullptr, &pairs), SD_OK);
+    ASSERT_EQ(
+        sd_measure_intersections(2 * V, p.data(), static_cast<int32_t>(t.size() / 3), t.data(), 0, nullptr, &pairs),
+        SD_OK);
     EXPECT_GT(pairs, 20);  // a circle of contact crosses many triangle pairs
     // Restricted to the first sphere's triangles only: a closed sphere does not cut itself.
     std::vector<int32_t> first(ta.size() / 3);
     for (size_t i = 0; i < first.size(); ++i) first[i] = static_cast<int32_t>(i);
     ASSERT_EQ(sd_measure_intersections(2 * V, p.data(), static_cast<int32_t>(t.size() / 3), t.data(),
-                                       static_cast<int32_t>(first.size()), first.data(), &pairs), SD_OK);
+                                       static_cast<int32_t>(first.size()), first.data(), &pairs),
+              SD_OK);
     EXPECT_EQ(pairs, 0);
 }
 

@@ -17,8 +17,8 @@ namespace {
 
 const double k150 = glm::radians(150.0);
 
-double max_distance(const std::vector<float>& a, const std::vector<float>& b, double x_min = -1e9,
-                    double x_max = 1e9, const std::vector<float>* rest = nullptr) {
+double max_distance(const std::vector<float>& a, const std::vector<float>& b, double x_min = -1e9, double x_max = 1e9,
+                    const std::vector<float>* rest = nullptr) {
     double d = 0;
     for (size_t i = 0; i < a.size(); i += 3) {
         const double x = rest ? (*rest)[i] : a[i];
@@ -40,8 +40,7 @@ std::vector<float> deform(const Rig& rig, const Binding& binding, double bend, b
     return out;
 }
 
-KeyCorrection correction(double angle, dvec3 dc = dvec3(0.0), dvec3 dr = dvec3(0.0), double sa = 1.0,
-                         double sb = 1.0) {
+KeyCorrection correction(double angle, dvec3 dc = dvec3(0.0), dvec3 dr = dvec3(0.0), double sa = 1.0, double sb = 1.0) {
     KeyCorrection c;
     c.angle = angle;
     c.delta_center = dc;
@@ -114,8 +113,7 @@ TEST(KeyEdit, ThreeSamplesNeverOvershoot) {
 
 TEST(KeyEdit, ACorrectionAtRestShiftsEveryPose) {
     const std::vector<KeyCorrection> at_rest = {correction(0.3, dvec3(0, 0.01, 0))};
-    for (double angle : {0.0, 0.3, 1.0, k150, M_PI})
-        EXPECT_EQ(correction_at(at_rest, 0.3, angle).delta_center.y, 0.01);
+    for (double angle : {0.0, 0.3, 1.0, k150, M_PI}) EXPECT_EQ(correction_at(at_rest, 0.3, angle).delta_center.y, 0.01);
     // With a second one at 150°, the two are joined smoothly.
     const std::vector<KeyCorrection> two = {at_rest[0], correction(k150, dvec3(0, 0.03, 0))};
     EXPECT_EQ(correction_at(two, 0.3, 0.3).delta_center.y, 0.01);
@@ -175,7 +173,8 @@ TEST(KeyEdit, VolumeControlKeepsAScalingEdit) {
         if (std::abs(arm.mesh[3 * v] - 1.0) < 1e-6) {
             const dvec3 elbow(1, 0, 0);
             r_plain = std::max(r_plain, glm::length(dvec3(plain[3 * v], plain[3 * v + 1], plain[3 * v + 2]) - elbow));
-            r_scaled = std::max(r_scaled, glm::length(dvec3(scaled[3 * v], scaled[3 * v + 1], scaled[3 * v + 2]) - elbow));
+            r_scaled =
+                std::max(r_scaled, glm::length(dvec3(scaled[3 * v], scaled[3 * v + 1], scaled[3 * v + 2]) - elbow));
         }
     EXPECT_GT(r_scaled / r_plain, 1.2);
 }
@@ -189,8 +188,8 @@ TEST(KeyEdit, ARestCorrectionDeformsTheRestPoseAndResetsV0) {
     EXPECT_NE(s.corrected_rest_volume, s.rest_volume);
     Deformer* d = nullptr;
     const auto rest = deform(edited, binding, 0.0, true, &d);
-    EXPECT_EQ(d->volume_iterations[0], 0);  // the corrected rest is the controller's rest
-    EXPECT_GT(max_distance(rest, arm.mesh, 0.9, 1.1), 0.02);   // the elbow moved at rest
+    EXPECT_EQ(d->volume_iterations[0], 0);                           // the corrected rest is the controller's rest
+    EXPECT_GT(max_distance(rest, arm.mesh, 0.9, 1.1), 0.02);         // the elbow moved at rest
     EXPECT_LT(max_distance(rest, arm.mesh, -1.0, 0.2), 0.1 * 0.03);  // the shoulder hardly
     // And every other pose is shifted too.
     EXPECT_GT(max_distance(deform(edited, binding, k150), deform(arm.rig, binding, k150), 0.8, 1.2), 0.02);
@@ -201,9 +200,14 @@ TEST(KeyEdit, InvalidCorrectionsAreRefusedAndChangeNothing) {
     arm.rig.set_key_corrections(0, 3, {correction(1.0, dvec3(0.01, 0, 0))});
     const auto before = serialize_rig(arm.rig);
     const std::vector<KeyCorrection> bad[] = {
-        {correction(-0.1)}, {correction(4.0)}, {correction(NAN)}, {correction(1.0, dvec3(2.0, 0, 0))},
-        {correction(1.0, dvec3(0.0), dvec3(0, 0, 1.7))}, {correction(1.0, dvec3(0.0), dvec3(0.0), 0.05)},
-        {correction(1.0, dvec3(0.0), dvec3(0.0), 1.0, 11.0)}, {correction(1.0, dvec3(0.0), dvec3(0.0), INFINITY)},
+        {correction(-0.1)},
+        {correction(4.0)},
+        {correction(NAN)},
+        {correction(1.0, dvec3(2.0, 0, 0))},
+        {correction(1.0, dvec3(0.0), dvec3(0, 0, 1.7))},
+        {correction(1.0, dvec3(0.0), dvec3(0.0), 0.05)},
+        {correction(1.0, dvec3(0.0), dvec3(0.0), 1.0, 11.0)},
+        {correction(1.0, dvec3(0.0), dvec3(0.0), INFINITY)},
         // At rest, the elbow key moved onto its neighbour (x = 2/3).
         {correction(0.0, dvec3(0, 0, -1.0 / 3.0))},
     };

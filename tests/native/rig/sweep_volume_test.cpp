@@ -62,7 +62,8 @@ TEST(SweepVolume, GradientMatchesFiniteDifferences) {
         ap[k] += h;
         am[k] -= h;
         const double fd = (sweep_volume(s.quadrature, density, ap.data(), b.data()) -
-                           sweep_volume(s.quadrature, density, am.data(), b.data())) / (2 * h);
+                           sweep_volume(s.quadrature, density, am.data(), b.data())) /
+                          (2 * h);
         EXPECT_NEAR(ga[k], fd, 1e-7) << "key " << k;
     }
 }
