@@ -86,7 +86,7 @@ def test_wrong_abi_version_is_refused(monkeypatch):
         native._load()
         assert False, "accepted another ABI"
     except native.NativeLibraryError as e:
-        assert "ABI version 1" in str(e) and "needs 99" in str(e)
+        assert "ABI version 2" in str(e) and "needs 99" in str(e)
 
 
 def test_arrays_of_the_wrong_dtype_never_reach_c():
