@@ -1,6 +1,9 @@
 """Writes REPORT.md for a scripts/quality run (inside Blender, for its image I/O):
 
-  blender -b --factory-startup --python scripts/quality_report.py -- OUT_DIR
+  blender -b --factory-startup --python scripts/quality_report.py -- OUT_DIR [--publish DOCS_DIR]
+
+With --publish, also docs/quality.md: the same tables, and the pictures of the tests artists
+look at first (PUBLISHED_TESTS) at half size in DOCS_DIR/images/quality/.
 
 OUT_DIR/<blender version>/<character>/<method>.json are the instrument's results; this adds, per
 character, the table of every test for LBS, DQS, Sweep and Sweep + effects, the criteria of
@@ -20,6 +23,8 @@ LABELS = {"lbs": "LBS", "dqs": "DQS", "sweep": "Sweep", "sweep_fx": "Sweep+fx"}
 VOLUME_TESTS = {"elbow_flex_90", "elbow_flex_120", "elbow_flex_150", "knee_flex_90", "knee_flex_135",
                 "hip_flex_90", "spine_bend_45"}
 CREASE_PREFIXES = ("spine_bend", "hip_", "shoulder_", "forearm_twist")
+PUBLISHED_TESTS = ("shoulder_abd_160", "spine_bend_45", "forearm_twist_180", "elbow_flex_150", "knee_flex_135",
+                   "hip_flex_90")
 
 
 def get(rec, *path):
@@ -74,8 +79,9 @@ def load_png(path):
     return px.reshape(h, w, 4)
 
 
-def side_by_side(paths, out_path):
+def side_by_side(paths, out_path, step=1):
     tiles = [load_png(p) for p in paths]
+    tiles = [t[::step, ::step] if t is not None else None for t in tiles]
     first = next((t for t in tiles if t is not None), None)
     if first is None:
         return False
@@ -92,7 +98,7 @@ def side_by_side(paths, out_path):
     return True
 
 
-def character_section(out, use, stem, lines, totals):
+def character_section(out, use, stem, lines, totals, publish=None):
     d = os.path.join(out, use, stem)
     res = {}
     for m in METHODS:
@@ -150,7 +156,14 @@ def character_section(out, use, stem, lines, totals):
         pngs = [get(recs.get("lbs") or recs.get("sweep"), "png_rest")] + [get(recs.get(m), "png") for m in METHODS]
         jpg = os.path.join(d, "pictures", name + ".jpg")
         os.makedirs(os.path.dirname(jpg), exist_ok=True)
-        if side_by_side(pngs, jpg):
+        if publish is not None:
+            if name not in PUBLISHED_TESTS:
+                continue
+            jpg = os.path.join(publish, "images", "quality", f"{use}_{stem}_{name}.jpg")
+            os.makedirs(os.path.dirname(jpg), exist_ok=True)
+            if side_by_side(pngs, jpg, step=2):
+                pictures.append((name, os.path.relpath(jpg, publish)))
+        elif side_by_side(pngs, jpg):
             pictures.append((name, os.path.relpath(jpg, out)))
     lines.append("")
     if pictures:
@@ -159,9 +172,7 @@ def character_section(out, use, stem, lines, totals):
             lines.append(f"**{name}**  \n![{stem} {name}]({rel})\n")
 
 
-def main():
-    argv = sys.argv[sys.argv.index("--") + 1:]
-    out = os.path.abspath(argv[0])
+def write_report(out, path, publish=None):
     lines = [f"# Quality report — {datetime.date.today().isoformat()}\n",
              "Made by `scripts/quality` with the shared instrument (`../shared/skineval`). "
              "Columns: L = Armature modifier (LBS), D = Preserve Volume (DQS), S = Sweep Deform, "
@@ -178,13 +189,23 @@ def main():
         body.append(f"## Blender {use}\n")
         for stem in sorted(os.listdir(os.path.join(out, use))):
             if os.path.isdir(os.path.join(out, use, stem)):
-                character_section(out, use, stem, body, totals)
+                character_section(out, use, stem, body, totals, publish)
     lines.append("Criteria met by plain Sweep Deform (over every character and test): " + ", ".join(
         f"{k} {v[0]}/{v[1]}" for k, v in totals.items()) + "\n")
-    with open(os.path.join(out, "REPORT.md"), "w") as f:
+    with open(path, "w") as f:
         f.write("\n".join(lines + body) + "\n")
+    return totals
+
+
+def main():
+    argv = sys.argv[sys.argv.index("--") + 1:]
+    out = os.path.abspath(argv[0])
+    totals = write_report(out, os.path.join(out, "REPORT.md"))
     with open(os.path.join(out, "criteria.json"), "w") as f:
         json.dump(totals, f, indent=1)
+    if "--publish" in argv:
+        docs = os.path.abspath(argv[argv.index("--publish") + 1])
+        write_report(out, os.path.join(docs, "quality_report.md"), publish=docs)
 
 
 main()

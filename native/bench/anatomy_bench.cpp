@@ -9,7 +9,7 @@
 // the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
 #include "anatomy/anatomy.h"
 #include "bench_case.h"
-#include "deform.h"
+#include "deform/deform.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -97,8 +97,18 @@ void BM_SweepsWithAllEffects(benchmark::State& state) {
     state.counters["vertices"] = static_cast<double>(out.size() / 3);
 }
 
-BENCHMARK(BM_Sweeps)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(5)->ReportAggregatesOnly();
-BENCHMARK(BM_SweepsWithAllEffects)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(1.0)->Repetitions(5)->ReportAggregatesOnly();
+BENCHMARK(BM_Sweeps)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly();
+BENCHMARK(BM_SweepsWithAllEffects)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(1.0)
+    ->Repetitions(5)
+    ->ReportAggregatesOnly();
 
 }  // namespace
 
@@ -130,24 +140,26 @@ int main(int argc, char** argv) {
     }
     for (size_t i = 0; i < c.fit.chains.chains.size(); ++i) {
         const sd::fit::Chain& chain = c.fit.chains.chains[i];
-        if (c.fit.chain_sweep[i] < 0 || chain.kind == sd::fit::ChainKind::Torso || chain.kind == sd::fit::ChainKind::Custom) continue;
+        if (c.fit.chain_sweep[i] < 0 || chain.kind == sd::fit::ChainKind::Torso ||
+            chain.kind == sd::fit::ChainKind::Custom)
+            continue;
         try {
-            c.anatomy->add_joint(chain.bones[std::min<size_t>(chain.first_swept, chain.bones.size() - 1)], JointKind::Generic,
-                                 nullptr);
-        } catch (const sd::InvalidInput&) {
-        }
+            c.anatomy->add_joint(chain.bones[std::min<size_t>(chain.first_swept, chain.bones.size() - 1)],
+                                 JointKind::Generic, nullptr);
+        } catch (const sd::InvalidInput&) {}
     }
     std::vector<float> warm(ch.positions.size());
     c.anatomy->deform(*c.deformer, c.poses[0].data(), warm.data());  // builds the collision set
     const auto t2 = std::chrono::steady_clock::now();
     g_case = &c;
 
-    std::printf("case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %d triangles, %zu sweeps (fitted), "
-                "%d joints, %d triangles in their collision regions, clip %s, %d threads "
-                "(setup %.1f s, anatomy %.2f s)\n",
-                V, T, c.fit.rig.sweeps.size(), c.anatomy->joint_count(), c.anatomy->stats().collision_triangles,
-                motion.clip.c_str(), tbb::info::default_concurrency(),
-                std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
+    std::printf(
+        "case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %d triangles, %zu sweeps (fitted), "
+        "%d joints, %d triangles in their collision regions, clip %s, %d threads "
+        "(setup %.1f s, anatomy %.2f s)\n",
+        V, T, c.fit.rig.sweeps.size(), c.anatomy->joint_count(), c.anatomy->stats().collision_triangles,
+        motion.clip.c_str(), tbb::info::default_concurrency(), std::chrono::duration<double>(t1 - t0).count(),
+        std::chrono::duration<double>(t2 - t1).count());
     sd::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);
     benchmark::Shutdown();
@@ -160,7 +172,8 @@ int main(int argc, char** argv) {
         std::printf("\nFIGURES (%d vertices, %d frames of the clip measured)\n", V, c.frames);
         std::printf("  sweeps alone (median)                 : %.3f ms/frame\n", sweeps);
         std::printf("  sweeps + all effects (median)         : %.3f ms/frame (target <= 5 ms)\n", all);
-        std::printf("  mean of the stages' own timers       : %.3f ms/frame, worst frame %.3f ms\n", total, c.worst_total);
+        std::printf("  mean of the stages' own timers       : %.3f ms/frame, worst frame %.3f ms\n", total,
+                    c.worst_total);
         std::printf("  process CPU time (both threads)       : %.3f ms/frame\n", c.cpu_ms / n);
         const auto row = [&](const char* name, double ms) {
             std::printf("    %-34s %7.3f ms  %5.1f %%\n", name, ms / n, 100.0 * ms / s.ms_total);
@@ -172,14 +185,16 @@ int main(int argc, char** argv) {
         row("  of which the first full query", s.ms_first_detection);
         row("skin folding", s.ms_folding);
         row("volume (I_C, restoration)", s.ms_volume);
-        row("other (pose, bookkeeping)", s.ms_total - s.ms_sweeps - s.ms_bulge - s.ms_protrusion - s.ms_collision -
-                                             s.ms_folding - s.ms_volume);
-        std::printf("  intersecting pairs per frame: %.1f before folding (max %d), %.2f after (max %d); "
-                    "%d of %d frames left with pairs; %.2f folding passes per frame\n",
-                    s.pairs_before / n, c.max_before, s.pairs_after / n, c.max_after, c.unresolved, c.frames,
-                    s.folding_iterations / n);
+        row("other (pose, bookkeeping)",
+            s.ms_total - s.ms_sweeps - s.ms_bulge - s.ms_protrusion - s.ms_collision - s.ms_folding - s.ms_volume);
+        std::printf(
+            "  intersecting pairs per frame: %.1f before folding (max %d), %.2f after (max %d); "
+            "%d of %d frames left with pairs; %.2f folding passes per frame\n",
+            s.pairs_before / n, c.max_before, s.pairs_after / n, c.max_after, c.unresolved, c.frames,
+            s.folding_iterations / n);
         std::printf("  re-checks per frame %.2f over %.0f triangles; exact triangle tests per frame %.0f\n",
-                    s.rechecks / n, static_cast<double>(s.rechecked_triangles) / n, static_cast<double>(s.triangle_tests) / n);
+                    s.rechecks / n, static_cast<double>(s.rechecked_triangles) / n,
+                    static_cast<double>(s.triangle_tests) / n);
     }
     return 0;
 }

@@ -1,9 +1,9 @@
-// What the benchmarks share: fitting + binding as the add-on does it (tests/support), and a
+// What the benchmarks share: fitting + binding as the add-on does it (native/character_fit), and a
 // console reporter that keeps each benchmark's median
 // real time so a benchmark can print ratios measured in the same run.
 #pragma once
 
-#include "fit_support.h"
+#include "character_fit.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -19,8 +19,8 @@
 
 namespace sd::bench {
 
-using testing::bind_fitted;
-using testing::fit_input;
+using character_fit::bind_fitted;
+using character_fit::fit_input;
 
 /// The shared data's humans/ folder (SWEEPDEFORM_SHARED_DATA_DIR), or "" after printing that
 /// `bench` has nothing to measure because the data is not there.

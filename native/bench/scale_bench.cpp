@@ -4,7 +4,7 @@
 // Case: MakeHuman male (../shared/data/humans/mh_male_game_engine.glb) refined three
 // Catmull–Clark levels with OpenSubdiv (13,380 -> 1,283,906 vertices), posed by the dance clip.
 #include "bench_case.h"
-#include "deform.h"
+#include "deform/deform.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -38,8 +38,10 @@ int main(int argc, char** argv) {
         sd::io::refine_catmull_clark(sd::io::load_gltf_character(data + "mh_male_game_engine.glb"), levels);
     const sd::io::Character anims = sd::io::load_gltf_character(data + "mh_male_game_engine_anims.glb");
     const int V = static_cast<int>(c.positions.size() / 3);
-    std::printf("case: MakeHuman male, %d Catmull-Clark levels: %d vertices, %zu triangles (load+refine %.2f s, peak %.0f MiB)\n",
-                levels, V, c.triangles.size() / 3, seconds_since(t0), peak_rss_mib());
+    std::printf(
+        "case: MakeHuman male, %d Catmull-Clark levels: %d vertices, %zu triangles (load+refine %.2f s, peak %.0f "
+        "MiB)\n",
+        levels, V, c.triangles.size() / 3, seconds_since(t0), peak_rss_mib());
 
     t0 = std::chrono::steady_clock::now();
     const sd::fit::FitResult fit = sd::fit::fit_rig(sd::bench::fit_input(c));

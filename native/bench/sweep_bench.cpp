@@ -8,8 +8,8 @@
 // Poses: the retargeted CMU dance clip of mh_male_game_engine_anims.glb at 30 fps.
 // Rig: the automatic fitting (native/src/fit), as the add-on does it.
 #include "bench_case.h"
-#include "deform.h"
-#include "linear_blend_skinning.h"
+#include "deform/deform.h"
+#include "deform/linear_blend_skinning.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
@@ -58,8 +58,8 @@ void BM_LinearBlendSkinning4(benchmark::State& state) {
     for (auto _ : state) {
         // The same per-frame preparation as the sweep path: validate the pose, build matrices.
         pose.set(c.fit->rig.skeleton, c.poses[frame++ % c.poses.size()].data());
-        sd::skin_linear_blend4(sd::bone_affines(pose), V, c.character.positions.data(),
-                               c.character.skin_joints.data(), c.character.skin_weights.data(), out.data());
+        sd::skin_linear_blend4(sd::bone_affines(pose), V, c.character.positions.data(), c.character.skin_joints.data(),
+                               c.character.skin_weights.data(), out.data());
         benchmark::DoNotOptimize(out.data());
     }
 }
@@ -76,8 +76,21 @@ void BM_FitAndBind(benchmark::State& state) {
 
 // Interleaved repetitions and their median keep the ratio honest on a machine whose load
 // changes during the run.
-BENCHMARK(BM_SweepDeform)->Arg(1)->Arg(0)->ArgName("volume")->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly();
-BENCHMARK(BM_LinearBlendSkinning4)->UseRealTime()->Unit(benchmark::kMillisecond)->MinTime(0.5)->Repetitions(7)->ReportAggregatesOnly();
+BENCHMARK(BM_SweepDeform)
+    ->Arg(1)
+    ->Arg(0)
+    ->ArgName("volume")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->Repetitions(7)
+    ->ReportAggregatesOnly();
+BENCHMARK(BM_LinearBlendSkinning4)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->Repetitions(7)
+    ->ReportAggregatesOnly();
 BENCHMARK(BM_FitAndBind)->UseRealTime()->Unit(benchmark::kMillisecond)->Iterations(5);
 
 }  // namespace
@@ -97,9 +110,9 @@ int main(int argc, char** argv) {
     g_case = &c;
 
     const int V = static_cast<int>(c.character.positions.size() / 3);
-    std::printf("case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %zu sweeps, clip %s, %d threads (setup %.2f s)\n",
-                V, c.fit->rig.sweeps.size(), motion.clip.c_str(),
-                tbb::info::default_concurrency(), setup);
+    std::printf(
+        "case: MakeHuman male, 1 Catmull-Clark level: %d vertices, %zu sweeps, clip %s, %d threads (setup %.2f s)\n", V,
+        c.fit->rig.sweeps.size(), motion.clip.c_str(), tbb::info::default_concurrency(), setup);
     sd::bench::RecordingReporter reporter;
     benchmark::RunSpecifiedBenchmarks(&reporter);
     benchmark::Shutdown();

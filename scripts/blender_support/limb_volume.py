@@ -5,7 +5,7 @@ The limb is a fixed set of skin triangles (chosen once, at rest); its volume in 
 volume that set encloses once each hole in it (the shoulder or hip ring, the wrist or ankle ring)
 is closed by a fan of triangles from the hole's centroid. The caps move with the rings, so a
 ring that moves rigidly adds the same cap volume in every pose and the change is the limb's own.
-This is the same measure the core's volume restoration holds (anatomy/mesh_volume.h), computed
+This is the same measure the core's volume restoration holds (native/src/geometry/mesh_volume.h), computed
 here independently from the evaluated meshes, for any deformation method.
 """
 

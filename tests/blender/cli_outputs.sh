@@ -12,7 +12,7 @@ set -euo pipefail
 build="$1" out="$2"
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd -P)"
 data="$repo/../shared/data"
-tool="$build/native/tools/sweepdeform"
+tool="$build/native/tools/cli/sweepdeform"
 mkdir -p "$out"
 skip() { echo "$1" >"$out/skipped.txt"; exit 0; }
 [[ -x "$tool" ]] || skip "the command-line tool is not built ($tool missing)"

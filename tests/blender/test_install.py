@@ -27,7 +27,7 @@ def test_library_loads_by_its_versioned_name_and_abi():
     ok, version = native.available()
     assert ok, version
     assert version == "0.1.0"
-    assert native.abi_version() == native.ABI_VERSION == 1
+    assert native.abi_version() == native.ABI_VERSION == 2
     assert native.library_path() == os.path.join(installed_dir(), "lib", "libsweepdeform.so.0.1.0")
     maps = open("/proc/self/maps").read()
     assert os.path.join(installed_dir(), "lib", "libsweepdeform.so.0.1.0") in maps
@@ -49,9 +49,10 @@ def test_tbb_is_blenders_one_copy():
 
 def test_every_abi_function_is_declared():
     """native.SIGNATURES and native_dmap.SIGNATURES against the header: same function names,
-    same argument counts. The sd_dmap_* block belongs to libsweepdeform_dmap (native_dmap.py),
-    the rest to libsweepdeform (native.py)."""
-    header = open(os.path.join(helpers.REPO, "native", "include", "sweepdeform", "sweepdeform.h")).read()
+    same argument counts. sweepdeform_dmap.h (sd_dmap_*) belongs to libsweepdeform_dmap
+    (native_dmap.py), sweepdeform.h to libsweepdeform (native.py)."""
+    include = os.path.join(helpers.REPO, "native", "include", "sweepdeform")
+    header = "".join(open(os.path.join(include, name)).read() for name in ("sweepdeform.h", "sweepdeform_dmap.h"))
     header = re.sub(r"/\*.*?\*/", "", header, flags=re.S)
     declared = {}
     for m in re.finditer(r"SD_API\s+[\w\s\*]+?\b(sd_\w+)\s*\(([^)]*)\)", header):
@@ -85,7 +86,7 @@ def test_wrong_abi_version_is_refused(monkeypatch):
         native._load()
         assert False, "accepted another ABI"
     except native.NativeLibraryError as e:
-        assert "ABI version 1" in str(e) and "needs 99" in str(e)
+        assert "ABI version 2" in str(e) and "needs 99" in str(e)
 
 
 def test_arrays_of_the_wrong_dtype_never_reach_c():

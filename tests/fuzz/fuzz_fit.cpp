@@ -23,8 +23,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (auto& t : tris) t = in.take<int16_t>() % (V + 2);
     const int32_t keys = in.take<uint8_t>() % 5;
     sd_fit_result* fit = nullptr;
-    if (sd_fit_rig(V, pos.data(), T, tris.data(), 3, arm.parents, arm.rest, arm.heads, arm.tails, nullptr, 0,
-                   nullptr, nullptr, keys, 0, nullptr, nullptr, &fit) != SD_OK)
+    if (sd_fit_rig(V, pos.data(), T, tris.data(), 3, arm.parents, arm.rest, arm.heads, arm.tails, nullptr, 0, nullptr,
+                   nullptr, keys, 0, nullptr, nullptr, &fit) != SD_OK)
         return 0;
     int32_t S = 0, K = 0;
     if (sd_fit_result_slot_counts(fit, &S, &K) != SD_OK) __builtin_trap();

@@ -32,7 +32,7 @@ private:
     size_t n_;
 };
 
-/// Three bones along +x and one sweep of seven keys (see tests/native/test_arm.h).
+/// Three bones along +x and one sweep of seven keys (see tests/support/test_arm.h).
 struct Arm {
     int32_t parents[3] = {-1, 0, 1};
     float rest[48] = {};
@@ -56,7 +56,8 @@ struct Arm {
             fractions[2 * k + 1] = k == 6 ? 1.0f : 0.5f;
         }
         if (sd_rig_create(3, parents, rest, heads, tails, &rig) != SD_OK ||
-            sd_rig_add_sweep(rig, 7, centers, orientations, half_axes, bones, joint_parents, fractions, nullptr) != SD_OK)
+            sd_rig_add_sweep(rig, 7, centers, orientations, half_axes, bones, joint_parents, fractions, nullptr) !=
+                SD_OK)
             __builtin_trap();
     }
     ~Arm() { sd_rig_destroy(rig); }

@@ -28,8 +28,7 @@ dvec3 point(const std::vector<float>& a, int i) { return dvec3(a[3 * i], a[3 * i
 /// Half-axes and major direction of the skin around a key: second moments, about the key's
 /// center, of the chain's vertices in a thin slab around the key's plane. For points spread
 /// evenly over an ellipse's boundary the moment along a half-axis is half its square.
-void size_key(const io::Character& c, const std::vector<bool>& in_chain, double slab,
-              double reach, KeyEllipse& key) {
+void size_key(const io::Character& c, const std::vector<bool>& in_chain, double slab, double reach, KeyEllipse& key) {
     const dmat3 frame = glm::mat3_cast(key.orientation);
     Eigen::Matrix2d m = Eigen::Matrix2d::Zero();
     int n = 0;
@@ -56,8 +55,7 @@ void size_key(const io::Character& c, const std::vector<bool>& in_chain, double 
 
 }  // namespace
 
-BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chains,
-                      int intermediate_keys) {
+BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chains, int intermediate_keys) {
     std::map<std::string, int> index;
     for (size_t b = 0; b < c.bone_names.size(); ++b) index[c.bone_names[b]] = static_cast<int>(b);
     const auto bone = [&](const std::string& name) {
@@ -68,8 +66,8 @@ BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chai
     };
     const int B = static_cast<int>(c.bone_names.size());
     BoneRig out;
-    out.rig.skeleton = Skeleton::from_arrays(B, c.bone_parents.data(), c.bone_rest.data(),
-                                             c.bone_heads.data(), c.bone_tails.data());
+    out.rig.skeleton =
+        Skeleton::from_arrays(B, c.bone_parents.data(), c.bone_rest.data(), c.bone_heads.data(), c.bone_tails.data());
     std::vector<int> chain_of_bone(B, -1);
     for (const ChainSpec& spec : chains) {
         std::vector<int> links;
@@ -150,8 +148,8 @@ BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chai
 
 Binding BoneRig::bind(const io::Character& c) const {
     const int V = static_cast<int>(c.positions.size() / 3);
-    return bind_vertices(rig, V, c.positions.data(), 2, sweep_ids.data(), sweep_weights.data(), 4,
-                         bone_ids.data(), bone_weights.data());
+    return bind_vertices(rig, V, c.positions.data(), 2, sweep_ids.data(), sweep_weights.data(), 4, bone_ids.data(),
+                         bone_weights.data());
 }
 
 }  // namespace sd::testing

@@ -4,8 +4,8 @@
 // from the character's own skin weights. The real, robust fitting lives in native/src/fit.
 #pragma once
 
-#include "bind.h"
-#include "rig.h"
+#include "bind/bind.h"
+#include "rig/rig.h"
 
 #include <sweepdeform_io/character.h>
 
@@ -36,7 +36,6 @@ struct BoneRig {
 
 /// Builds the rig: chains resolved by name (@throws std::runtime_error naming a missing
 /// bone), `intermediate_keys` per link.
-BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chains,
-                      int intermediate_keys = 2);
+BoneRig make_bone_rig(const io::Character& c, const std::vector<ChainSpec>& chains, int intermediate_keys = 2);
 
 }  // namespace sd::testing

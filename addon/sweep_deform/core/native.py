@@ -27,7 +27,7 @@ import numpy as np
 #: The library file name this add-on version ships and loads (never the bare SONAME).
 LIBRARY_FILE = "libsweepdeform.so.0.1.0"
 #: The ``SD_ABI_VERSION`` this binding was written against.
-ABI_VERSION = 1
+ABI_VERSION = 2
 
 SD_OK = 0
 STATUS_NAMES = {
@@ -196,7 +196,7 @@ SIGNATURES = {
     "sd_fit_result_rig": (Status, [FitResultP, ctypes.POINTER(RigP)]),
     "sd_fit_result_slot_counts": (Status, [FitResultP, P_INT32, P_INT32]),
     "sd_fit_result_weights": (Status, [FitResultP, c_int32, c_int32, I32_OUT, F32_OUT, c_int32, I32_OUT, F32_OUT]),
-    "sd_fit_result_report": (c_char_p, [FitResultP]),
+    "sd_fit_result_report": (Status, [FitResultP, U8_OUT, c_int64, P_INT64]),
     # key-ellipse editing (Sect. 4.2): pose-space corrections
     "sd_rig_key_joint": (Status, [RigP, c_int32, c_int32, P_INT32, P_INT32, P_FLOAT]),
     "sd_rig_key_joint_angle": (Status, [RigP, c_int32, c_int32, c_int32, F32, P_FLOAT]),
@@ -711,8 +711,8 @@ class FitResult(_Handle):
 
     def report(self):
         """The fitting report (JSON text)."""
-        text = library().sd_fit_result_report(self.ptr)
-        return text.decode("utf-8", "replace") if text else ""
+        text = _serialize("sd_fit_result_report", self.ptr)  # NUL-terminated
+        return text[:-1].decode("utf-8", "replace")
 
 
 def fit_rig(positions, triangles, parents, rest, heads, tails, bone_names=None,

@@ -17,8 +17,8 @@ import ctypes
 
 import numpy as np
 
-from .native import (F32, F32_OUT, I32, I32_OUT, SD_OK, STATUS_NAMES, U8, NativeError, NativeLibraryError,
-                     Status, bundled_path, c_float, c_int32, c_int64, open_library)
+from .native import (F32, F32_OUT, I32, I32_OUT, P_INT64, SD_OK, STATUS_NAMES, U8, U8_OUT, NativeError,
+                     NativeLibraryError, Status, bundled_path, c_float, c_int32, c_int64, open_library)
 
 #: The file this add-on version ships and loads (versioned, like native.LIBRARY_FILE).
 LIBRARY_FILE = "libsweepdeform_dmap.so.0.1.0"
@@ -33,12 +33,12 @@ class _MapT(ctypes.Structure):
     pass
 
 
-class _BlobT(ctypes.Structure):
+class _BindingT(ctypes.Structure):
     pass
 
 
 MapP = ctypes.POINTER(_MapT)
-BlobP = ctypes.POINTER(_BlobT)
+BindingP = ctypes.POINTER(_BindingT)
 
 #: name -> (restype, argtypes). Every sd_dmap_* function of the header (a test compares).
 SIGNATURES = {
@@ -49,9 +49,9 @@ SIGNATURES = {
     "sd_dmap_sweep_count": (c_int32, [MapP]),
     "sd_dmap_fit_errors": (Status, [MapP, c_int32, I32_OUT, F32_OUT, F32_OUT]),
     "sd_dmap_evaluate": (Status, [MapP, c_int32, c_int32, F32, F32, F32_OUT, F32_OUT]),
-    "sd_dmap_bind": (Status, [MapP, c_int32, F32, c_float, ctypes.POINTER(c_int32), ctypes.POINTER(BlobP)]),
-    "sd_dmap_blob_data": (ctypes.POINTER(ctypes.c_uint8), [BlobP, ctypes.POINTER(c_int64)]),
-    "sd_dmap_blob_destroy": (None, [BlobP]),
+    "sd_dmap_bind": (Status, [MapP, c_int32, F32, c_float, ctypes.POINTER(c_int32), ctypes.POINTER(BindingP)]),
+    "sd_dmap_binding_serialize": (Status, [BindingP, U8_OUT, c_int64, P_INT64]),
+    "sd_dmap_binding_destroy": (None, [BindingP]),
 }
 
 _lib = None
@@ -130,11 +130,13 @@ class DisplacementMap:
         """Binds rest points (N, 3) float32 in armature space, no connectivity needed.
         Returns (binding blob bytes for native.Binding.deserialize, influences snapped)."""
         pts = np.ascontiguousarray(points, np.float32).reshape(-1, 3)
-        snapped, blob = c_int32(0), BlobP()
-        _call("sd_dmap_bind", self._handle, pts.shape[0], pts, float(snap), ctypes.byref(snapped), ctypes.byref(blob))
-        try:
+        snapped, binding = c_int32(0), BindingP()
+        _call("sd_dmap_bind", self._handle, pts.shape[0], pts, float(snap), ctypes.byref(snapped), ctypes.byref(binding))
+        try:  # the blob: size query, then fill
             size = c_int64(0)
-            data = library().sd_dmap_blob_data(blob, ctypes.byref(size))
-            return ctypes.string_at(data, size.value), int(snapped.value)
+            _call("sd_dmap_binding_serialize", binding, None, 0, ctypes.byref(size))
+            blob = np.empty(size.value, np.uint8)
+            _call("sd_dmap_binding_serialize", binding, blob, size.value, ctypes.byref(size))
+            return blob.tobytes(), int(snapped.value)
         finally:
-            library().sd_dmap_blob_destroy(blob)
+            library().sd_dmap_binding_destroy(binding)

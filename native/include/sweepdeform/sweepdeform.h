@@ -3,10 +3,25 @@
  *
  * Sweep-based human deformation (Hyun et al. 2005) behind a small C ABI.
  *
+ * The continuous displacement map is another library with its own header,
+ * sweepdeform_dmap.h (libsweepdeform_dmap.so).
+ *
  * Conventions
  *  - Every function returns an sd_status; on failure the thread-local message from
- *    sd_last_error() says what was wrong, and no output or handle was changed.
- *  - The caller owns every array it passes. Arrays are tightly packed, row-major per
+ *    sd_last_error() says what was wrong, and no output or handle was changed. The
+ *    exceptions, which cannot fail or report a failure in their value:
+ *      sd_abi_version, sd_library_version, sd_last_error  (the library block: nothing to
+ *        check; they return the value itself)
+ *      sd_*_destroy  (nothing to report: NULL is accepted and ignored)
+ *      sd_rig_bone_count, sd_rig_sweep_count, sd_rig_key_count, sd_binding_vertex_count,
+ *      sd_anatomy_joint_count, sd_rig_key_correction_count, sd_rig_correction_count
+ *        (a count, or -1 for a NULL handle or an index out of range; sd_rig_key_count,
+ *        sd_rig_key_correction_count and sd_anatomy_joint_count then also set
+ *        sd_last_error's message)
+ *  - The caller owns every array and buffer it passes; the library never hands out memory
+ *    of its own except through handles, which the caller destroys. Outputs of a size the
+ *    caller cannot know in advance (blobs, the fitting's report) are a size query then a
+ *    fill: call with buffer NULL to get *out_size, then with a buffer of that capacity. Arrays are tightly packed, row-major per
  *    element: positions are #V*3 floats (x,y,z), matrices are 16 floats in COLUMN-major
  *    order (the layout of GLM, OpenGL and Blender's Matrix transposed rows), quaternions
  *    are 4 floats (w, x, y, z).
@@ -34,16 +49,17 @@ extern "C" {
 #define SD_API __attribute__((visibility("default")))
 #endif
 
-/* Bumped whenever a signature or a struct layout of this header changes. */
-#define SD_ABI_VERSION 1
+/* Bumped whenever a signature or a struct layout of this header changes (2: the fitting's
+ * report is copied into the caller's buffer; joint kinds and parameters renamed). */
+#define SD_ABI_VERSION 2
 
 typedef enum sd_status {
     SD_OK = 0,
     SD_ERR_INVALID_ARGUMENT = 1, /* a count, index, number or pointer was invalid */
     SD_ERR_CORRUPT_DATA = 2,     /* a blob failed its magic, version, size or checksum check */
     SD_ERR_OUT_OF_MEMORY = 3,
-    SD_ERR_MISMATCH = 4,         /* e.g. a binding used with another rig, wrong vertex count */
-    SD_ERR_INTERNAL = 5          /* a bug: please report the message */
+    SD_ERR_MISMATCH = 4, /* e.g. a binding used with another rig, wrong vertex count */
+    SD_ERR_INTERNAL = 5  /* a bug: please report the message */
 } sd_status;
 
 typedef struct sd_rig sd_rig;           /* skeleton + sweeps of key ellipses (rest pose) */
@@ -69,8 +85,8 @@ SD_API const char* sd_last_error(void);
  *               the bone's deformation in a pose P is P * rest^-1
  *  heads, tails #B*3, bone head and tail in armature space (tail != head)
  */
-SD_API sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest,
-                               const float* heads, const float* tails, sd_rig** out_rig);
+SD_API sd_status sd_rig_create(int32_t bone_count, const int32_t* parents, const float* rest, const float* heads,
+                               const float* tails, sd_rig** out_rig);
 SD_API void sd_rig_destroy(sd_rig* rig);
 SD_API sd_status sd_rig_clone(const sd_rig* rig, sd_rig** out_rig);
 
@@ -90,18 +106,16 @@ SD_API sd_status sd_rig_clone(const sd_rig* rig, sd_rig** out_rig);
  *                      the joint); ignored for intermediate keys
  * Key centers must be distinct (chord length > 0). out_sweep_index may be NULL.
  */
-SD_API sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers,
-                                  const float* orientations, const float* half_axes,
-                                  const int32_t* bones, const int32_t* joint_parents,
+SD_API sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers, const float* orientations,
+                                  const float* half_axes, const int32_t* bones, const int32_t* joint_parents,
                                   const float* fractions, int32_t* out_sweep_index);
 SD_API int32_t sd_rig_bone_count(const sd_rig* rig);
 SD_API int32_t sd_rig_sweep_count(const sd_rig* rig);
 /* Number of key ellipses of a sweep, or -1 (and an error) for a bad index. */
 SD_API int32_t sd_rig_key_count(const sd_rig* rig, int32_t sweep);
 /* Reads the key ellipses of a sweep into caller arrays sized as in sd_rig_add_sweep (any may be NULL). */
-SD_API sd_status sd_rig_get_keys(const sd_rig* rig, int32_t sweep, float* centers,
-                                 float* orientations, float* half_axes, int32_t* bones,
-                                 int32_t* joint_parents, float* fractions);
+SD_API sd_status sd_rig_get_keys(const sd_rig* rig, int32_t sweep, float* centers, float* orientations,
+                                 float* half_axes, int32_t* bones, int32_t* joint_parents, float* fractions);
 /* Rest volume of a sweep, ∫ π a b <N, C'> dt, in units^3. */
 SD_API sd_status sd_rig_sweep_rest_volume(const sd_rig* rig, int32_t sweep, double* out_volume);
 
@@ -112,13 +126,11 @@ SD_API sd_status sd_rig_sweep_rest_volume(const sd_rig* rig, int32_t sweep, doub
  *  normals   #count*3  N(t)       rotations #count*9  R(t) column-major
  *  half_axes #count*2  a(t), b(t)
  */
-SD_API sd_status sd_rig_evaluate_sweep(const sd_rig* rig, int32_t sweep, int32_t count,
-                                       const float* u, float* centers, float* tangents,
-                                       float* normals, float* rotations, float* half_axes);
+SD_API sd_status sd_rig_evaluate_sweep(const sd_rig* rig, int32_t sweep, int32_t count, const float* u, float* centers,
+                                       float* tangents, float* normals, float* rotations, float* half_axes);
 
 /* Versioned, checksummed byte blob of the rig. Call with buffer NULL to get the size. */
-SD_API sd_status sd_rig_serialize(const sd_rig* rig, uint8_t* buffer, int64_t capacity,
-                                  int64_t* out_size);
+SD_API sd_status sd_rig_serialize(const sd_rig* rig, uint8_t* buffer, int64_t capacity, int64_t* out_size);
 /* Rebuilds a rig from a blob; a corrupt or truncated blob is SD_ERR_CORRUPT_DATA. */
 SD_API sd_status sd_rig_deserialize(const uint8_t* buffer, int64_t size, sd_rig** out_rig);
 
@@ -133,40 +145,34 @@ SD_API sd_status sd_rig_deserialize(const uint8_t* buffer, int64_t size, sd_rig*
  *                no sweep: hands, feet, head); bone_ids #V*K (-1 unused), bone_weights #V*K
  * For every vertex the weights must be >= 0 with a positive sum; they are normalised.
  */
-SD_API sd_status sd_bind(const sd_rig* rig, int32_t vertex_count, const float* positions,
-                         int32_t sweep_slots, const int32_t* sweep_ids, const float* sweep_weights,
-                         int32_t bone_slots, const int32_t* bone_ids, const float* bone_weights,
-                         sd_binding** out_binding);
+SD_API sd_status sd_bind(const sd_rig* rig, int32_t vertex_count, const float* positions, int32_t sweep_slots,
+                         const int32_t* sweep_ids, const float* sweep_weights, int32_t bone_slots,
+                         const int32_t* bone_ids, const float* bone_weights, sd_binding** out_binding);
 SD_API void sd_binding_destroy(sd_binding* binding);
 SD_API int32_t sd_binding_vertex_count(const sd_binding* binding);
 /*
  * Per-vertex binding parameters of the heaviest sweep influence, for display and tests:
  * sweep #V (-1 = bone-driven only), t #V in [0, 1] along the sweep, theta #V radians.
  */
-SD_API sd_status sd_binding_get_parameters(const sd_binding* binding, int32_t vertex_count,
-                                           int32_t* sweep, float* t, float* theta);
-SD_API sd_status sd_binding_serialize(const sd_binding* binding, uint8_t* buffer,
-                                      int64_t capacity, int64_t* out_size);
-SD_API sd_status sd_binding_deserialize(const uint8_t* buffer, int64_t size,
-                                        sd_binding** out_binding);
+SD_API sd_status sd_binding_get_parameters(const sd_binding* binding, int32_t vertex_count, int32_t* sweep, float* t,
+                                           float* theta);
+SD_API sd_status sd_binding_serialize(const sd_binding* binding, uint8_t* buffer, int64_t capacity, int64_t* out_size);
+SD_API sd_status sd_binding_deserialize(const uint8_t* buffer, int64_t size, sd_binding** out_binding);
 
 /* ---- deformation -------------------------------------------------------------------- */
 
 /* A deformer keeps its own copies of the rig and the binding (which must match). */
-SD_API sd_status sd_deformer_create(const sd_rig* rig, const sd_binding* binding,
-                                    sd_deformer** out_deformer);
+SD_API sd_status sd_deformer_create(const sd_rig* rig, const sd_binding* binding, sd_deformer** out_deformer);
 SD_API void sd_deformer_destroy(sd_deformer* deformer);
 
 /* Volume preservation (Sect. 4.4): on by default, strength 1 (0 = off, 1 = full). */
-SD_API sd_status sd_deformer_set_volume_preservation(sd_deformer* deformer, int32_t enabled,
-                                                     float strength);
+SD_API sd_status sd_deformer_set_volume_preservation(sd_deformer* deformer, int32_t enabled, float strength);
 /*
  * Per-sweep volume the controller subtracts from the rest volume: its target becomes
  * V0 - offset (the anatomical effects' I_C). offsets #S, units^3, each within
  * [-9, 0.9] x the sweep's rest volume.
  */
-SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t sweep_count,
-                                                const float* offsets);
+SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t sweep_count, const float* offsets);
 
 /*
  * Deforms one frame.
@@ -174,39 +180,35 @@ SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t s
  *  out_positions  #V*3 written with the deformed positions
  * Parallel over vertices; the result does not depend on the number of threads.
  */
-SD_API sd_status sd_deform(sd_deformer* deformer, int32_t bone_count, const float* pose,
-                           int32_t vertex_count, float* out_positions);
+SD_API sd_status sd_deform(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
+                           float* out_positions);
 
 /*
  * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.
  * Each array #S (any may be NULL), units^3.
  */
-SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sweep_count,
-                                         double* rest, double* before, double* after);
+SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sweep_count, double* rest, double* before,
+                                         double* after);
 /* Controller iterations used by each sweep in the last frame (#S). */
-SD_API sd_status sd_deformer_get_volume_iterations(const sd_deformer* deformer,
-                                                   int32_t sweep_count, int32_t* iterations);
+SD_API sd_status sd_deformer_get_volume_iterations(const sd_deformer* deformer, int32_t sweep_count,
+                                                   int32_t* iterations);
 
 /* ---- measurements (reports and tests) ---------------------------------------------- */
 
 /* Volume enclosed by a closed, outward-oriented triangle mesh (units^3).
  * positions #V*3, triangles #T*3 (indices in [0, V)). */
-SD_API sd_status sd_measure_volume(int32_t vertex_count, const float* positions,
-                                   int32_t triangle_count, const int32_t* triangles,
-                                   double* out_volume);
+SD_API sd_status sd_measure_volume(int32_t vertex_count, const float* positions, int32_t triangle_count,
+                                   const int32_t* triangles, double* out_volume);
 /* Pairs of triangles that intersect and share no vertex, by an exact test, among the
  * `subset_count` triangles listed in `subset` (NULL/0 = all triangles). */
-SD_API sd_status sd_measure_intersections(int32_t vertex_count, const float* positions,
-                                          int32_t triangle_count, const int32_t* triangles,
-                                          int32_t subset_count, const int32_t* subset,
+SD_API sd_status sd_measure_intersections(int32_t vertex_count, const float* positions, int32_t triangle_count,
+                                          const int32_t* triangles, int32_t subset_count, const int32_t* subset,
                                           int64_t* out_pairs);
 /* Cross-section areas: for each plane i (points #count*3, normals #count*3) the area of the
  * cut loop surrounding points[i] (else the nearest loop within `reach`), 0 when none. */
-SD_API sd_status sd_measure_cross_sections(int32_t vertex_count, const float* positions,
-                                           int32_t triangle_count, const int32_t* triangles,
-                                           int32_t count, const float* points,
-                                           const float* normals, float reach,
-                                           double* out_areas);
+SD_API sd_status sd_measure_cross_sections(int32_t vertex_count, const float* positions, int32_t triangle_count,
+                                           const int32_t* triangles, int32_t count, const float* points,
+                                           const float* normals, float reach, double* out_areas);
 
 /* ---- automatic fitting (Sect. 3.2, 3.5) ---- */
 
@@ -234,108 +236,35 @@ typedef struct sd_fit_result sd_fit_result;
  * the report says; it is an error only when no chain can be fitted.
  */
 SD_API sd_status sd_fit_rig(int32_t vertex_count, const float* positions, int32_t triangle_count,
-                            const int32_t* triangles, int32_t bone_count, const int32_t* parents,
-                            const float* rest, const float* heads, const float* tails,
-                            const char* const* bone_names, int32_t skin_slots,
-                            const int32_t* skin_bones, const float* skin_weights,
-                            int32_t keys_per_link, int32_t chain_count,
-                            const int32_t* chain_offsets, const int32_t* chain_bones,
+                            const int32_t* triangles, int32_t bone_count, const int32_t* parents, const float* rest,
+                            const float* heads, const float* tails, const char* const* bone_names, int32_t skin_slots,
+                            const int32_t* skin_bones, const float* skin_weights, int32_t keys_per_link,
+                            int32_t chain_count, const int32_t* chain_offsets, const int32_t* chain_bones,
                             sd_fit_result** out_result);
 SD_API void sd_fit_result_destroy(sd_fit_result* result);
 /* A new rig (the skeleton and one sweep per fitted chain); the caller destroys it. */
 SD_API sd_status sd_fit_result_rig(const sd_fit_result* result, sd_rig** out_rig);
 /* Slot counts of the weights below (either pointer may be NULL). */
-SD_API sd_status sd_fit_result_slot_counts(const sd_fit_result* result, int32_t* sweep_slots,
-                                           int32_t* bone_slots);
+SD_API sd_status sd_fit_result_slot_counts(const sd_fit_result* result, int32_t* sweep_slots, int32_t* bone_slots);
 /*
  * The binding weights, ready for sd_bind with the same slot counts: sweep_ids/sweep_weights
  * #V*sweep_slots, bone_ids/bone_weights #V*bone_slots. Slot counts may exceed those of
  * sd_fit_result_slot_counts (extra slots get id -1, weight 0), not fall short of them.
  */
-SD_API sd_status sd_fit_result_weights(const sd_fit_result* result, int32_t vertex_count,
-                                       int32_t sweep_slots, int32_t* sweep_ids,
-                                       float* sweep_weights, int32_t bone_slots,
-                                       int32_t* bone_ids, float* bone_weights);
+SD_API sd_status sd_fit_result_weights(const sd_fit_result* result, int32_t vertex_count, int32_t sweep_slots,
+                                       int32_t* sweep_ids, float* sweep_weights, int32_t bone_slots, int32_t* bone_ids,
+                                       float* bone_weights);
 /*
- * The fitting report, JSON text (UTF-8), valid until the result is destroyed ("" for NULL):
+ * The fitting report, JSON text (UTF-8), copied into the caller's buffer: *out_size is its
+ * size in bytes including the terminating NUL; with buffer NULL only *out_size is written,
+ * else capacity must be at least that size. The report holds
  * mesh statistics (components, border edges, non-manifold faces), the body axes, per chain
  * its kind, bones, sweep index (-1 if it failed, with "error"), and per key ellipse its role,
  * bone, center, normal, half-axes, the area of the cross-section it was fitted to and of the
  * ellipse, fit RMS, the share of the section that belonged to the chain, fallbacks and notes;
  * the regions' counts (vertices bound, blended, rigid) and warnings.
  */
-SD_API const char* sd_fit_result_report(const sd_fit_result* result);
-
-/* ---- continuous displacement map (Sect. 3.4) ---- */
-
-/*
- * The continuous displacement map d(θ, t) of a bound mesh: per sweep, the displacement of
- * the skin from the moving ellipse in the sweep's local frame (x, y along the ellipse's
- * axes, z along the sweep; the out-of-plane part is kept) as a smooth bicubic B-spline over
- * a regular (θ, t) control grid, periodic in θ and open in t, evaluated with OpenSubdiv. With
- * it, geometry that was never fitted (a subdivided or retopologised mesh of the same body, a
- * point cloud) is bound without re-fitting: weights from the closest point of the fitted
- * mesh, (θ, t) by the binding's plane search, local coordinates from the map.
- *
- * These functions live in the SEPARATE library libsweepdeform_dmap.so (it links OpenSubdiv;
- * libsweepdeform.so does not), so a host loads OpenSubdiv only when it uses the map. They
- * exchange rigs and bindings as the blobs of sd_rig_serialize / sd_binding_serialize (the
- * two libraries share no handles), and report failures through sd_dmap_last_error(), not
- * sd_last_error(). t is the sweep's global parameter in [0, 1], uniform per span, as in
- * sd_rig_evaluate_sweep; θ in radians.
- */
-typedef struct sd_displacement_map sd_displacement_map;
-
-/* sd_dmap_bind's snap: no point takes the map's surface / every point does / the default. */
-#define SD_DMAP_SNAP_EXACT 0.0f
-#define SD_DMAP_SNAP_SURFACE 1e30f
-#define SD_DMAP_SNAP_DEFAULT 0.1f
-
-/* Message of the last failed sd_dmap_* call on this thread ("" if none). */
-SD_API const char* sd_dmap_last_error(void);
-
-/*
- * Fits the map of a bound mesh.
- *  rig_blob, binding_blob  blobs of the rig and of a binding made with it (sd_bind)
- *  triangle_count, triangles  the bound mesh's triangles (#T*3 vertex indices)
- *  theta_cells       control points around each sweep, 4..256 (0 = default 24)
- *  t_cells_per_span  control intervals along each span, 1..64 (0 = default 3)
- *  smoothing         bending weight relative to the data, >= 0 (negative = default 1e-3)
- */
-SD_API sd_status sd_dmap_fit(const uint8_t* rig_blob, int64_t rig_size, const uint8_t* binding_blob,
-                             int64_t binding_size, int32_t triangle_count, const int32_t* triangles,
-                             int32_t theta_cells, int32_t t_cells_per_span, float smoothing,
-                             sd_displacement_map** out_map);
-SD_API void sd_dmap_destroy(sd_displacement_map* map);
-SD_API int32_t sd_dmap_sweep_count(const sd_displacement_map* map);
-/* Fit residuals per sweep at its own samples (#S each, any may be NULL): sample counts,
- * weighted RMS and max of |d_V - d(θ_V, t_V)| in the rig's units. */
-SD_API sd_status sd_dmap_fit_errors(const sd_displacement_map* map, int32_t sweep_count,
-                                    int32_t* samples, float* rms, float* max);
-/* d(θ_i, t_i) of one sweep for `count` parameter pairs: displacements #count*3 (local frame)
- * and/or rest_points #count*3 (armature space, S(θ,t) + R(t) d(θ,t)); either may be NULL. */
-SD_API sd_status sd_dmap_evaluate(const sd_displacement_map* map, int32_t sweep, int32_t count,
-                                  const float* theta, const float* t, float* displacements,
-                                  float* rest_points);
-/*
- * Binds `point_count` rest points (#N*3, armature space; no connectivity needed) through the
- * map (which keeps the rig it was fitted with): weights from the closest point of the fitted
- * mesh, (θ, t) per sweep by the plane search of sd_bind. Each sweep influence then takes the
- * map's smooth surface point at its (θ, t) if that lies within snap x min(a(t), b(t)) of the
- * point's own offset, else keeps its own (folds and caps where d is not single-valued).
- * SD_DMAP_SNAP_EXACT keeps every point where it is; SD_DMAP_SNAP_SURFACE moves every point
- * onto the map's surface. out_snapped (may be NULL) receives how many influences took the
- * map's point. The binding comes back as a blob for sd_binding_deserialize() of
- * libsweepdeform; it is made for the same rig as the binding the map was fitted from (it
- * carries that binding's rig fingerprint), so it deforms with that rig's handle.
- */
-typedef struct sd_dmap_blob sd_dmap_blob;
-SD_API sd_status sd_dmap_bind(const sd_displacement_map* map, int32_t point_count,
-                              const float* positions, float snap, int32_t* out_snapped,
-                              sd_dmap_blob** out_binding_blob);
-/* The blob's bytes (valid until it is destroyed) and size; NULL and 0 for a NULL blob. */
-SD_API const uint8_t* sd_dmap_blob_data(const sd_dmap_blob* blob, int64_t* out_size);
-SD_API void sd_dmap_blob_destroy(sd_dmap_blob* blob);
+SD_API sd_status sd_fit_result_report(const sd_fit_result* result, char* buffer, int64_t capacity, int64_t* out_size);
 
 /* ---- anatomical effects (Sect. 4.3, 4.4) ---- */
 
@@ -354,9 +283,9 @@ SD_API void sd_dmap_blob_destroy(sd_dmap_blob* blob);
 typedef struct sd_anatomy sd_anatomy;
 
 typedef enum sd_joint_kind {
-    SD_JOINT_GENERIC = 0, /* folding only: shoulder (armpit), hip (groin), neck */
-    SD_JOINT_ELBOW = 1,   /* also an olecranon proxy on the forearm and a biceps */
-    SD_JOINT_KNEE = 2     /* also a patella proxy and a calf muscle on the shin */
+    SD_JOINT_KIND_GENERIC = 0, /* folding only: shoulder (armpit), hip (groin), neck */
+    SD_JOINT_KIND_ELBOW = 1,   /* also an olecranon proxy on the forearm and a biceps */
+    SD_JOINT_KIND_KNEE = 2     /* also a patella proxy and a calf muscle on the shin */
 } sd_joint_kind;
 
 /* Per-joint effect switches, a bit mask (all on when a joint is added). */
@@ -365,22 +294,21 @@ typedef enum sd_joint_kind {
 #define SD_EFFECT_BULGE 4
 
 typedef enum sd_joint_parameter {
-    SD_JOINT_PROTRUSION_STRENGTH = 0, /* 0..2 (1): scales the push out of a bone proxy */
-    SD_JOINT_PROTRUSION_FALLOFF = 1,  /* >= 0 (0 = automatic): radius of its smooth falloff, units */
-    SD_JOINT_BULGE_STRENGTH = 2,      /* 0..1 (0.15): outward push at full flexion, share of the local radius */
-    SD_JOINT_BULGE_FALLOFF = 3,       /* 0.05..0.5 (0.35): width of the muscle's smooth edge, share of its extent */
-    SD_JOINT_FOLDING_FALLOFF = 4,     /* >= 0 (0 = automatic): radius of the folding falloff, units */
-    SD_JOINT_FOLDING_MARGIN = 5,      /* >= 0 (0 = automatic): gap kept between folded skin, units */
-    SD_JOINT_REGION_RADIUS = 6        /* >= 0 (0 = automatic): collision region around the joint at rest */
+    SD_JOINT_PARAM_PROTRUSION_STRENGTH = 0, /* 0..2 (1): scales the push out of a bone proxy */
+    SD_JOINT_PARAM_PROTRUSION_FALLOFF = 1,  /* >= 0 (0 = automatic): radius of its smooth falloff, units */
+    SD_JOINT_PARAM_BULGE_STRENGTH = 2,      /* 0..1 (0.15): outward push at full flexion, share of the local radius */
+    SD_JOINT_PARAM_BULGE_FALLOFF = 3,   /* 0.05..0.5 (0.35): width of the muscle's smooth edge, share of its extent */
+    SD_JOINT_PARAM_FOLDING_FALLOFF = 4, /* >= 0 (0 = automatic): radius of the folding falloff, units */
+    SD_JOINT_PARAM_FOLDING_MARGIN = 5,  /* >= 0 (0 = automatic): gap kept between folded skin, units */
+    SD_JOINT_PARAM_REGION_RADIUS = 6    /* >= 0 (0 = automatic): collision region around the joint at rest */
 } sd_joint_parameter;
 
 /*
  * Creates the anatomy layer for the mesh bound by `binding` (to `rig`: the pair a deformer
  * is created from). triangles #T*3 vertex indices in [0, V), T >= 1.
  */
-SD_API sd_status sd_anatomy_create(const sd_rig* rig, const sd_binding* binding,
-                                   int32_t triangle_count, const int32_t* triangles,
-                                   sd_anatomy** out_anatomy);
+SD_API sd_status sd_anatomy_create(const sd_rig* rig, const sd_binding* binding, int32_t triangle_count,
+                                   const int32_t* triangles, sd_anatomy** out_anatomy);
 SD_API void sd_anatomy_destroy(sd_anatomy* anatomy);
 /*
  * Adds the joint whose lower link is `lower_bone` (the rig must have a joint key ellipse
@@ -394,21 +322,18 @@ SD_API sd_status sd_anatomy_add_joint(sd_anatomy* anatomy, int32_t lower_bone, i
 /* Number of joints, or -1 (and an error) for NULL. */
 SD_API int32_t sd_anatomy_joint_count(const sd_anatomy* anatomy);
 SD_API sd_status sd_anatomy_set_joint_effects(sd_anatomy* anatomy, int32_t joint, int32_t effects);
-SD_API sd_status sd_anatomy_get_joint_effects(const sd_anatomy* anatomy, int32_t joint,
-                                              int32_t* effects);
-SD_API sd_status sd_anatomy_set_joint_parameter(sd_anatomy* anatomy, int32_t joint,
-                                                int32_t parameter, float value);
-SD_API sd_status sd_anatomy_get_joint_parameter(const sd_anatomy* anatomy, int32_t joint,
-                                                int32_t parameter, float* value);
+SD_API sd_status sd_anatomy_get_joint_effects(const sd_anatomy* anatomy, int32_t joint, int32_t* effects);
+SD_API sd_status sd_anatomy_set_joint_parameter(sd_anatomy* anatomy, int32_t joint, int32_t parameter, float value);
+SD_API sd_status sd_anatomy_get_joint_parameter(const sd_anatomy* anatomy, int32_t joint, int32_t parameter,
+                                                float* value);
 /*
  * Replaces the joint's bone proxies by a mesh of the caller's: positions #N*3 (armature
  * space, rest pose), triangles #F*3, closed and consistently oriented, star-shaped about its
  * volume centroid; it follows `fraction` in [0, 1] of the joint's rotation (1: rigidly with
  * the lower link, 0.5: with the joint's bisector).
  */
-SD_API sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint,
-                                            int32_t vertex_count, const float* positions,
-                                            int32_t triangle_count, const int32_t* triangles,
+SD_API sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint, int32_t vertex_count,
+                                            const float* positions, int32_t triangle_count, const int32_t* triangles,
                                             float fraction);
 /*
  * How I_C (the volume bulge, protrusion and folding added, per sweep) reaches the volume
@@ -429,12 +354,11 @@ SD_API sd_status sd_anatomy_set_folding_iterations(sd_anatomy* anatomy, int32_t 
  * (#B*16). With a deformer (may be NULL) I_C is measured and handed to it as its volume
  * offsets as the feedback mode says.
  */
-SD_API sd_status sd_anatomy_apply(sd_anatomy* anatomy, sd_deformer* deformer, int32_t bone_count,
-                                  const float* pose, int32_t vertex_count, float* positions);
+SD_API sd_status sd_anatomy_apply(sd_anatomy* anatomy, sd_deformer* deformer, int32_t bone_count, const float* pose,
+                                  int32_t vertex_count, float* positions);
 /* sd_deform followed by the effects and the volume feedback, in one call. */
-SD_API sd_status sd_deform_with_anatomy(sd_deformer* deformer, sd_anatomy* anatomy,
-                                        int32_t bone_count, const float* pose,
-                                        int32_t vertex_count, float* out_positions);
+SD_API sd_status sd_deform_with_anatomy(sd_deformer* deformer, sd_anatomy* anatomy, int32_t bone_count,
+                                        const float* pose, int32_t vertex_count, float* out_positions);
 
 /* Figures of the last frame, by index (times in milliseconds, volumes in units^3). */
 typedef enum sd_anatomy_stat {
@@ -455,26 +379,25 @@ typedef enum sd_anatomy_stat {
     SD_STAT_FOLDED_VERTICES = 14,
     SD_STAT_FALLOFF_VERTICES = 15,
     SD_STAT_RELAXED_VERTICES = 16,
-    SD_STAT_MAX_BULGE = 17,           /* largest displacement, units */
+    SD_STAT_MAX_BULGE = 17, /* largest displacement, units */
     SD_STAT_MAX_PROTRUSION = 18,
     SD_STAT_MAX_FOLD_DEPTH = 19,
-    SD_STAT_VOLUME_CHANGE = 20,       /* sum of I_C handed to the deformer */
-    SD_STAT_EFFECTS_VOLUME = 21,      /* volume bulge, protrusion and folding added */
+    SD_STAT_VOLUME_CHANGE = 20,  /* sum of I_C handed to the deformer */
+    SD_STAT_EFFECTS_VOLUME = 21, /* volume bulge, protrusion and folding added */
     SD_STAT_PASSES = 22,
-    SD_STAT_RESTORED_VOLUME = 23,     /* volume the restoration added */
+    SD_STAT_RESTORED_VOLUME = 23, /* volume the restoration added */
     SD_STAT_COUNT = 24
 } sd_anatomy_stat;
 /* Writes the first `count` (0..SD_STAT_COUNT) figures into values. */
 SD_API sd_status sd_anatomy_get_stats(const sd_anatomy* anatomy, int32_t count, double* values);
 /* I_C per sweep of the last frame (#S, units^3). */
-SD_API sd_status sd_anatomy_get_volume_offsets(const sd_anatomy* anatomy, int32_t sweep_count,
-                                               double* offsets);
+SD_API sd_status sd_anatomy_get_volume_offsets(const sd_anatomy* anatomy, int32_t sweep_count, double* offsets);
 /*
  * Exact count of intersecting triangle pairs (sharing no vertex) among the triangles of the
  * joints whose folding is on, for `positions` (#V*3): a check, independent of the folding.
  */
-SD_API sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t vertex_count,
-                                                const float* positions, int32_t* out_pairs);
+SD_API sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t vertex_count, const float* positions,
+                                                int32_t* out_pairs);
 
 /* ---- key-ellipse editing (Sect. 4.2) ---- */
 
@@ -521,62 +444,54 @@ SD_API sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t ver
 
 /* The joint a key's corrections are keyed by: its bones (parent -1: none) and its rest angle.
  * Any output may be NULL. */
-SD_API sd_status sd_rig_key_joint(const sd_rig* rig, int32_t sweep, int32_t key,
-                                  int32_t* parent_bone, int32_t* child_bone, float* rest_angle);
+SD_API sd_status sd_rig_key_joint(const sd_rig* rig, int32_t sweep, int32_t key, int32_t* parent_bone,
+                                  int32_t* child_bone, float* rest_angle);
 /* The key's joint angle in a pose (#B*16 as for sd_deform; NULL = the rest pose). */
-SD_API sd_status sd_rig_key_joint_angle(const sd_rig* rig, int32_t sweep, int32_t key,
-                                        int32_t bone_count, const float* pose, float* out_angle);
+SD_API sd_status sd_rig_key_joint_angle(const sd_rig* rig, int32_t sweep, int32_t key, int32_t bone_count,
+                                        const float* pose, float* out_angle);
 /* Adds a correction, or replaces the one within 1e-3 rad of `angle`. values #8 as above.
  * out_index (may be NULL) receives its index in the key's sorted list. */
-SD_API sd_status sd_rig_set_key_correction(sd_rig* rig, int32_t sweep, int32_t key, float angle,
-                                           const float* values, int32_t muted, int32_t* out_index);
-SD_API sd_status sd_rig_remove_key_correction(sd_rig* rig, int32_t sweep, int32_t key,
-                                              int32_t index);
-SD_API sd_status sd_rig_mute_key_correction(sd_rig* rig, int32_t sweep, int32_t key,
-                                            int32_t index, int32_t muted);
+SD_API sd_status sd_rig_set_key_correction(sd_rig* rig, int32_t sweep, int32_t key, float angle, const float* values,
+                                           int32_t muted, int32_t* out_index);
+SD_API sd_status sd_rig_remove_key_correction(sd_rig* rig, int32_t sweep, int32_t key, int32_t index);
+SD_API sd_status sd_rig_mute_key_correction(sd_rig* rig, int32_t sweep, int32_t key, int32_t index, int32_t muted);
 /* Number of corrections of a key, or -1 (and an error) for a bad index. */
 SD_API int32_t sd_rig_key_correction_count(const sd_rig* rig, int32_t sweep, int32_t key);
 /* A key's corrections: count must be sd_rig_key_correction_count; angles #count,
  * values #count*8, muted #count (any may be NULL). */
-SD_API sd_status sd_rig_get_key_corrections(const sd_rig* rig, int32_t sweep, int32_t key,
-                                            int32_t count, float* angles, float* values,
-                                            int32_t* muted);
+SD_API sd_status sd_rig_get_key_corrections(const sd_rig* rig, int32_t sweep, int32_t key, int32_t count, float* angles,
+                                            float* values, int32_t* muted);
 /* The interpolated correction of a key at a joint angle (values #8). */
-SD_API sd_status sd_rig_key_correction_at(const sd_rig* rig, int32_t sweep, int32_t key,
-                                          float angle, float* values);
+SD_API sd_status sd_rig_key_correction_at(const sd_rig* rig, int32_t sweep, int32_t key, float angle, float* values);
 /* All corrections of the rig, ordered by sweep, key and angle (-1 for a NULL rig). */
 SD_API int32_t sd_rig_correction_count(const sd_rig* rig);
 /* count must be sd_rig_correction_count; sweeps, keys, angles #count, values #count*8,
  * muted #count (any may be NULL). */
-SD_API sd_status sd_rig_get_corrections(const sd_rig* rig, int32_t count, int32_t* sweeps,
-                                        int32_t* keys, float* angles, float* values,
-                                        int32_t* muted);
+SD_API sd_status sd_rig_get_corrections(const sd_rig* rig, int32_t count, int32_t* sweeps, int32_t* keys, float* angles,
+                                        float* values, int32_t* muted);
 /* Replaces every correction of the rig (count 0 removes them all), all or nothing; arrays as
  * in sd_rig_get_corrections (muted may be NULL: none muted). */
-SD_API sd_status sd_rig_set_corrections(sd_rig* rig, int32_t count, const int32_t* sweeps,
-                                        const int32_t* keys, const float* angles,
-                                        const float* values, const int32_t* muted);
+SD_API sd_status sd_rig_set_corrections(sd_rig* rig, int32_t count, const int32_t* sweeps, const int32_t* keys,
+                                        const float* angles, const float* values, const int32_t* muted);
 /*
  * The key ellipses of a sweep in a pose (NULL = rest): key_count must be the sweep's;
  * centers #K*3, orientations #K*4 (w,x,y,z), half_axes #K*2 (before volume control), angles
  * #K the joint angles; any may be NULL. corrected = 0: Sect. 4.1's placement only; 1: with
  * the corrections.
  */
-SD_API sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone_count,
-                                  const float* pose, int32_t corrected, int32_t key_count,
-                                  float* centers, float* orientations, float* half_axes,
-                                  float* angles);
+SD_API sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone_count, const float* pose,
+                                  int32_t corrected, int32_t key_count, float* centers, float* orientations,
+                                  float* half_axes, float* angles);
 /* The corrected sweep in a pose (NULL = rest), before volume control, at `count` parameters
  * u in [0, 1] as in sd_rig_evaluate_sweep: centers #count*3, rotations #count*9
  * (column-major), half_axes #count*2; any may be NULL. */
-SD_API sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t bone_count,
-                                             const float* pose, int32_t count, const float* u,
-                                             float* centers, float* rotations, float* half_axes);
+SD_API sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t bone_count, const float* pose,
+                                             int32_t count, const float* u, float* centers, float* rotations,
+                                             float* half_axes);
 /* Replaces the corrections of the deformer's copy of the rig (as sd_rig_set_corrections).
  * Cheap, for live edits and animated corrections; the binding stays valid. */
-SD_API sd_status sd_deformer_set_rig_corrections(sd_deformer* deformer, int32_t count,
-                                                 const int32_t* sweeps, const int32_t* keys,
-                                                 const float* angles, const float* values,
+SD_API sd_status sd_deformer_set_rig_corrections(sd_deformer* deformer, int32_t count, const int32_t* sweeps,
+                                                 const int32_t* keys, const float* angles, const float* values,
                                                  const int32_t* muted);
 
 #ifdef __cplusplus

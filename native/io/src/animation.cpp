@@ -62,8 +62,8 @@ glm::dvec4 sample_values(const Channel& ch, double t, int n) {
       const double u = s.u, u2 = u * u, u3 = u2 * u;
       const glm::dvec4 p0 = value(s.k0, 1, 3), m0 = value(s.k0, 2, 3) * s.dt;
       const glm::dvec4 p1 = value(s.k1, 1, 3), m1 = value(s.k1, 0, 3) * s.dt;
-      const glm::dvec4 v = (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 +
-                           (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
+      const glm::dvec4 v =
+          (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * m0 + (-2 * u3 + 3 * u2) * p1 + (u3 - u2) * m1;
       return n == 4 ? glm::normalize(v) : v;
     }
   }
@@ -94,8 +94,12 @@ std::vector<float> sample_pose(const Character& c, int animation, double time_s)
         l.animated = true;
       }
       switch (ch.path) {
-        case Channel::Path::Translation: l.t = glm::dvec3(sample_values(ch, time_s, 3)); break;
-        case Channel::Path::Scale: l.s = glm::dvec3(sample_values(ch, time_s, 3)); break;
+        case Channel::Path::Translation:
+          l.t = glm::dvec3(sample_values(ch, time_s, 3));
+          break;
+        case Channel::Path::Scale:
+          l.s = glm::dvec3(sample_values(ch, time_s, 3));
+          break;
         case Channel::Path::Rotation: {
           const glm::dvec4 q = sample_values(ch, time_s, 4);
           l.r = glm::dquat(q.w, q.x, q.y, q.z);

@@ -56,7 +56,9 @@ class Tokens {
   [[noreturn]] void fail(const std::string& what) const {
     throw std::runtime_error(source_ + ":" + std::to_string(line()) + ": " + what);
   }
-  int line() const { return 1 + static_cast<int>(std::count(text_.begin(), text_.begin() + static_cast<long>(pos_), '\n')); }
+  int line() const {
+    return 1 + static_cast<int>(std::count(text_.begin(), text_.begin() + static_cast<long>(pos_), '\n'));
+  }
   size_t position() const { return pos_; }
   std::string_view text() const { return text_; }
 
@@ -73,9 +75,8 @@ bool parse_channel(std::string_view t, BvhChannel* out) {
   std::string s(t);
   std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return std::tolower(c); });
   static const std::map<std::string, BvhChannel> names = {
-      {"xposition", BvhChannel::Xposition}, {"yposition", BvhChannel::Yposition},
-      {"zposition", BvhChannel::Zposition}, {"xrotation", BvhChannel::Xrotation},
-      {"yrotation", BvhChannel::Yrotation}, {"zrotation", BvhChannel::Zrotation}};
+      {"xposition", BvhChannel::Xposition}, {"yposition", BvhChannel::Yposition}, {"zposition", BvhChannel::Zposition},
+      {"xrotation", BvhChannel::Xrotation}, {"yrotation", BvhChannel::Yrotation}, {"zrotation", BvhChannel::Zrotation}};
   const auto it = names.find(s);
   if (it == names.end()) return false;
   *out = it->second;
@@ -102,7 +103,8 @@ void parse_joint(Tokens& tok, BvhClip& clip, int32_t parent, std::string name, i
       for (int k = 0; k < 3; ++k) clip.joints[static_cast<size_t>(index)].offset[static_cast<size_t>(k)] = tok.number();
       have_offset = true;
     } else if (t == "CHANNELS") {
-      if (have_channels) tok.fail("joint '" + clip.joints[static_cast<size_t>(index)].name + "' has two CHANNELS lines");
+      if (have_channels)
+        tok.fail("joint '" + clip.joints[static_cast<size_t>(index)].name + "' has two CHANNELS lines");
       const long n = tok.integer();
       if (n > 6) tok.fail("a joint has at most 6 channels, found " + std::to_string(n));
       auto& channels = clip.joints[static_cast<size_t>(index)].channels;
@@ -167,10 +169,18 @@ std::vector<glm::dmat4> local_matrices(const BvhClip& clip, int32_t frame) {
       const BvhChannel ch = joint.channels[c];
       const double v = clip.value(frame, static_cast<int32_t>(j), c);
       switch (ch) {
-        case BvhChannel::Xposition: t.x = v; break;
-        case BvhChannel::Yposition: t.y = v; break;
-        case BvhChannel::Zposition: t.z = v; break;
-        default: r = r * axis_rotation(ch, v); break;
+        case BvhChannel::Xposition:
+          t.x = v;
+          break;
+        case BvhChannel::Yposition:
+          t.y = v;
+          break;
+        case BvhChannel::Zposition:
+          t.z = v;
+          break;
+        default:
+          r = r * axis_rotation(ch, v);
+          break;
       }
     }
     glm::dmat4 m(r);
@@ -204,14 +214,18 @@ double BvhClip::value(int32_t frame, int32_t joint, size_t channel) const {
   const BvhJoint& j = joints.at(static_cast<size_t>(joint));
   if (frame < 0) {
     switch (j.channels.at(channel)) {
-      case BvhChannel::Xposition: return j.offset[0];
-      case BvhChannel::Yposition: return j.offset[1];
-      case BvhChannel::Zposition: return j.offset[2];
-      default: return 0.0;
+      case BvhChannel::Xposition:
+        return j.offset[0];
+      case BvhChannel::Yposition:
+        return j.offset[1];
+      case BvhChannel::Zposition:
+        return j.offset[2];
+      default:
+        return 0.0;
     }
   }
-  return motion[static_cast<size_t>(frame) * static_cast<size_t>(channel_count) +
-                static_cast<size_t>(j.first_channel) + channel];
+  return motion[static_cast<size_t>(frame) * static_cast<size_t>(channel_count) + static_cast<size_t>(j.first_channel) +
+                channel];
 }
 
 BvhClip parse_bvh(std::string_view text, const std::string& source) {
@@ -240,8 +254,7 @@ BvhClip parse_bvh(std::string_view text, const std::string& source) {
   if (t != "Time:") tok.fail("expected 'Frame Time:', found 'Frame " + std::string(t) + "'");
   clip.frame_time_s = tok.number();
   if (!(clip.frame_time_s > 0.0)) tok.fail("frame time must be > 0");
-  if (frames > 0 && clip.channel_count > 0 &&
-      static_cast<double>(frames) * clip.channel_count > 4e8)
+  if (frames > 0 && clip.channel_count > 0 && static_cast<double>(frames) * clip.channel_count > 4e8)
     tok.fail("too many values (" + std::to_string(frames) + " frames)");
   clip.frame_count = static_cast<int32_t>(frames);
   const size_t total = static_cast<size_t>(frames) * static_cast<size_t>(clip.channel_count);
@@ -297,9 +310,29 @@ namespace {
 /// Canonical joints both sides are mapped to.
 enum Canon : int {
   kNone = -1,
-  kHips, kSpine1, kSpine2, kSpine3, kNeck, kNeck2, kHead,
-  kClavicleL, kUpperArmL, kLowerArmL, kHandL, kThighL, kCalfL, kFootL, kToeL,
-  kClavicleR, kUpperArmR, kLowerArmR, kHandR, kThighR, kCalfR, kFootR, kToeR,
+  kHips,
+  kSpine1,
+  kSpine2,
+  kSpine3,
+  kNeck,
+  kNeck2,
+  kHead,
+  kClavicleL,
+  kUpperArmL,
+  kLowerArmL,
+  kHandL,
+  kThighL,
+  kCalfL,
+  kFootL,
+  kToeL,
+  kClavicleR,
+  kUpperArmR,
+  kLowerArmR,
+  kHandR,
+  kThighR,
+  kCalfR,
+  kFootR,
+  kToeR,
   kCanonCount
 };
 
@@ -310,7 +343,8 @@ std::string normalise(std::string_view name) {
   if (colon != std::string_view::npos) name = name.substr(colon + 1);
   std::string s;
   for (char c : name)
-    if (std::isalnum(static_cast<unsigned char>(c))) s.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+    if (std::isalnum(static_cast<unsigned char>(c)))
+      s.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
   return s;
 }
 
@@ -322,28 +356,64 @@ struct Convention {
 /// Mixamo's skeleton: a motion source (exported as BVH) and a character's skeleton alike.
 Convention mixamo() {
   return {"Mixamo",
-          {{"hips", kHips}, {"spine", kSpine1}, {"spine1", kSpine2}, {"spine2", kSpine3}, {"neck", kNeck},
-           {"head", kHead}, {"leftshoulder", kClavicleL}, {"leftarm", kUpperArmL}, {"leftforearm", kLowerArmL},
-           {"lefthand", kHandL}, {"leftupleg", kThighL}, {"leftleg", kCalfL}, {"leftfoot", kFootL},
-           {"lefttoebase", kToeL}, {"rightshoulder", kClavicleR}, {"rightarm", kUpperArmR},
-           {"rightforearm", kLowerArmR}, {"righthand", kHandR}, {"rightupleg", kThighR}, {"rightleg", kCalfR},
-           {"rightfoot", kFootR}, {"righttoebase", kToeR}}};
+          {{"hips", kHips},
+           {"spine", kSpine1},
+           {"spine1", kSpine2},
+           {"spine2", kSpine3},
+           {"neck", kNeck},
+           {"head", kHead},
+           {"leftshoulder", kClavicleL},
+           {"leftarm", kUpperArmL},
+           {"leftforearm", kLowerArmL},
+           {"lefthand", kHandL},
+           {"leftupleg", kThighL},
+           {"leftleg", kCalfL},
+           {"leftfoot", kFootL},
+           {"lefttoebase", kToeL},
+           {"rightshoulder", kClavicleR},
+           {"rightarm", kUpperArmR},
+           {"rightforearm", kLowerArmR},
+           {"righthand", kHandR},
+           {"rightupleg", kThighR},
+           {"rightleg", kCalfR},
+           {"rightfoot", kFootR},
+           {"righttoebase", kToeR}}};
 }
 
 const std::vector<Convention>& source_conventions() {
   static const std::vector<Convention> c = {
-      {"cgspeed MotionBuilder",
-       {{"hips", kHips}, {"lowerback", kSpine1}, {"spine", kSpine2}, {"spine1", kSpine3}, {"neck", kNeck},
-        {"neck1", kNeck2}, {"head", kHead}, {"leftshoulder", kClavicleL}, {"leftarm", kUpperArmL},
-        {"leftforearm", kLowerArmL}, {"lefthand", kHandL}, {"leftupleg", kThighL}, {"leftleg", kCalfL},
-        {"leftfoot", kFootL}, {"lefttoebase", kToeL}, {"rightshoulder", kClavicleR}, {"rightarm", kUpperArmR},
-        {"rightforearm", kLowerArmR}, {"righthand", kHandR}, {"rightupleg", kThighR}, {"rightleg", kCalfR},
-        {"rightfoot", kFootR}, {"righttoebase", kToeR}}},
+      {"cgspeed MotionBuilder", {{"hips", kHips},          {"lowerback", kSpine1},
+                                 {"spine", kSpine2},       {"spine1", kSpine3},
+                                 {"neck", kNeck},          {"neck1", kNeck2},
+                                 {"head", kHead},          {"leftshoulder", kClavicleL},
+                                 {"leftarm", kUpperArmL},  {"leftforearm", kLowerArmL},
+                                 {"lefthand", kHandL},     {"leftupleg", kThighL},
+                                 {"leftleg", kCalfL},      {"leftfoot", kFootL},
+                                 {"lefttoebase", kToeL},   {"rightshoulder", kClavicleR},
+                                 {"rightarm", kUpperArmR}, {"rightforearm", kLowerArmR},
+                                 {"righthand", kHandR},    {"rightupleg", kThighR},
+                                 {"rightleg", kCalfR},     {"rightfoot", kFootR},
+                                 {"righttoebase", kToeR}}},
       {"Daz/Second Life",
-       {{"hip", kHips}, {"abdomen", kSpine1}, {"chest", kSpine3}, {"neck", kNeck}, {"head", kHead},
-        {"lcollar", kClavicleL}, {"lshldr", kUpperArmL}, {"lforearm", kLowerArmL}, {"lhand", kHandL},
-        {"lthigh", kThighL}, {"lshin", kCalfL}, {"lfoot", kFootL}, {"rcollar", kClavicleR}, {"rshldr", kUpperArmR},
-        {"rforearm", kLowerArmR}, {"rhand", kHandR}, {"rthigh", kThighR}, {"rshin", kCalfR}, {"rfoot", kFootR}}},
+       {{"hip", kHips},
+        {"abdomen", kSpine1},
+        {"chest", kSpine3},
+        {"neck", kNeck},
+        {"head", kHead},
+        {"lcollar", kClavicleL},
+        {"lshldr", kUpperArmL},
+        {"lforearm", kLowerArmL},
+        {"lhand", kHandL},
+        {"lthigh", kThighL},
+        {"lshin", kCalfL},
+        {"lfoot", kFootL},
+        {"rcollar", kClavicleR},
+        {"rshldr", kUpperArmR},
+        {"rforearm", kLowerArmR},
+        {"rhand", kHandR},
+        {"rthigh", kThighR},
+        {"rshin", kCalfR},
+        {"rfoot", kFootR}}},
       // Mixamo's skeleton exported as BVH: like cgspeed's names, but three spine joints
       // Spine, Spine1, Spine2 and no LowerBack; the file matching more names wins.
       mixamo(),
@@ -354,19 +424,33 @@ const std::vector<Convention>& source_conventions() {
 const std::vector<Convention>& target_conventions() {
   static const std::vector<Convention> c = {
       {"MakeHuman game_engine",
-       {{"pelvis", kHips}, {"spine01", kSpine1}, {"spine02", kSpine2}, {"spine03", kSpine3}, {"neck01", kNeck},
-        {"head", kHead}, {"claviclel", kClavicleL}, {"upperarml", kUpperArmL}, {"lowerarml", kLowerArmL},
-        {"handl", kHandL}, {"thighl", kThighL}, {"calfl", kCalfL}, {"footl", kFootL}, {"balll", kToeL},
-        {"clavicler", kClavicleR}, {"upperarmr", kUpperArmR}, {"lowerarmr", kLowerArmR}, {"handr", kHandR},
-        {"thighr", kThighR}, {"calfr", kCalfR}, {"footr", kFootR}, {"ballr", kToeR}}},
+       {{"pelvis", kHips},         {"spine01", kSpine1}, {"spine02", kSpine2},      {"spine03", kSpine3},
+        {"neck01", kNeck},         {"head", kHead},      {"claviclel", kClavicleL}, {"upperarml", kUpperArmL},
+        {"lowerarml", kLowerArmL}, {"handl", kHandL},    {"thighl", kThighL},       {"calfl", kCalfL},
+        {"footl", kFootL},         {"balll", kToeL},     {"clavicler", kClavicleR}, {"upperarmr", kUpperArmR},
+        {"lowerarmr", kLowerArmR}, {"handr", kHandR},    {"thighr", kThighR},       {"calfr", kCalfR},
+        {"footr", kFootR},         {"ballr", kToeR}}},
       mixamo(),
       {"CesiumMan",
-       {{"skeletontorsojoint1", kHips}, {"skeletontorsojoint2", kSpine1}, {"torsojoint3", kSpine3},
-        {"skeletonneckjoint1", kNeck}, {"skeletonneckjoint2", kHead}, {"skeletonarmjointl4", kUpperArmL},
-        {"skeletonarmjointl3", kLowerArmL}, {"skeletonarmjointl2", kHandL}, {"skeletonarmjointr", kUpperArmR},
-        {"skeletonarmjointr2", kLowerArmR}, {"skeletonarmjointr3", kHandR}, {"legjointl1", kThighL},
-        {"legjointl2", kCalfL}, {"legjointl3", kFootL}, {"legjointl5", kToeL}, {"legjointr1", kThighR},
-        {"legjointr2", kCalfR}, {"legjointr3", kFootR}, {"legjointr5", kToeR}}},
+       {{"skeletontorsojoint1", kHips},
+        {"skeletontorsojoint2", kSpine1},
+        {"torsojoint3", kSpine3},
+        {"skeletonneckjoint1", kNeck},
+        {"skeletonneckjoint2", kHead},
+        {"skeletonarmjointl4", kUpperArmL},
+        {"skeletonarmjointl3", kLowerArmL},
+        {"skeletonarmjointl2", kHandL},
+        {"skeletonarmjointr", kUpperArmR},
+        {"skeletonarmjointr2", kLowerArmR},
+        {"skeletonarmjointr3", kHandR},
+        {"legjointl1", kThighL},
+        {"legjointl2", kCalfL},
+        {"legjointl3", kFootL},
+        {"legjointl5", kToeL},
+        {"legjointr1", kThighR},
+        {"legjointr2", kCalfR},
+        {"legjointr3", kFootR},
+        {"legjointr5", kToeR}}},
   };
   return c;
 }
@@ -452,7 +536,8 @@ std::vector<glm::dvec3> source_bone_directions(const BvhClip& clip, const std::v
     } else if (jj.children.size() == 1) {
       const auto c = static_cast<size_t>(jj.children[0]);
       tail = glm::dvec3(rest[c][3]);
-      tail_local[j] = head_local[j] + glm::dvec3(clip.joints[c].offset[0], clip.joints[c].offset[1], clip.joints[c].offset[2]);
+      tail_local[j] =
+          head_local[j] + glm::dvec3(clip.joints[c].offset[0], clip.joints[c].offset[1], clip.joints[c].offset[2]);
     } else if (!jj.children.empty()) {
       glm::dvec3 world(0.0), local(0.0);
       for (int32_t c : jj.children) {
@@ -468,7 +553,8 @@ std::vector<glm::dvec3> source_bone_directions(const BvhClip& clip, const std::v
   for (size_t j = 0; j < J; ++j) {
     if (glm::length(dir[j]) >= 0.001) continue;
     const int32_t p = clip.joints[j].parent;
-    const glm::dvec3 ofs = p >= 0 ? head_local[static_cast<size_t>(p)] - tail_local[static_cast<size_t>(p)] : glm::dvec3(0.0);
+    const glm::dvec3 ofs =
+        p >= 0 ? head_local[static_cast<size_t>(p)] - tail_local[static_cast<size_t>(p)] : glm::dvec3(0.0);
     dir[j] = glm::length(ofs) > 0.0 ? dir[j] - ofs : dir[j] + glm::dvec3(0.0, 1.0, 0.0);
   }
   return dir;
@@ -532,8 +618,7 @@ BvhBoneMap map_bvh_to_character(const BvhClip& clip, const Character& c,
     if (m.source_convention.empty()) m.source_convention = m.target_convention = "custom";
   }
   if (m.mapped_count() == 0) {
-    std::string msg = "no bone of the character matches a joint of " + clip.source +
-                      " (give a bone map). Joints:";
+    std::string msg = "no bone of the character matches a joint of " + clip.source + " (give a bone map). Joints:";
     for (const auto& n : joint_names) msg += " " + n;
     msg += ". Bones:";
     for (const auto& n : c.bone_names) msg += " " + n;
@@ -625,13 +710,15 @@ BvhRetarget::BvhRetarget(const BvhClip& clip, const Character& c, BvhBoneMap map
       const int32_t t0 = bone_with(leg[0]), t1 = bone_with(leg[1]);
       if (t0 < 0 || t1 < 0 || target > 0.0) continue;
       target = distance(c.bone_heads.data() + 3 * t0, c.bone_heads.data() + 3 * t1);
-      source = glm::length(joint_pos(map_.source[static_cast<size_t>(t1)]) - joint_pos(map_.source[static_cast<size_t>(t0)]));
+      source = glm::length(joint_pos(map_.source[static_cast<size_t>(t1)]) -
+                           joint_pos(map_.source[static_cast<size_t>(t0)]));
     }
     if (!(target > 0.0 && source > 0.0)) {
       const int32_t th = bone_with(kHips), tt = bone_with(kHead);
       if (th >= 0 && tt >= 0) {
         target = distance(c.bone_heads.data() + 3 * th, c.bone_heads.data() + 3 * tt);
-        source = glm::length(joint_pos(map_.source[static_cast<size_t>(tt)]) - joint_pos(map_.source[static_cast<size_t>(th)]));
+        source = glm::length(joint_pos(map_.source[static_cast<size_t>(tt)]) -
+                             joint_pos(map_.source[static_cast<size_t>(th)]));
       }
     }
     scale_ = target > 0.0 && source > 0.0 ? target / source : 1.0;
@@ -644,7 +731,8 @@ BvhRetarget::BvhRetarget(const BvhClip& clip, const Character& c, BvhBoneMap map
   const BvhJoint& root = clip.joints[static_cast<size_t>(map_.root_joint)];
   const glm::dvec3 root_rest = joint_pos(map_.root_joint);
   root_rest_ = {root_rest.x, root_rest.y, root_rest.z};
-  if (!options.root_rest_from_offset && root.parent < 0 && root.offset[0] == 0.0 && root.offset[1] == 0.0 && root.offset[2] == 0.0 && clip.frame_count > 0) {
+  if (!options.root_rest_from_offset && root.parent < 0 && root.offset[0] == 0.0 && root.offset[1] == 0.0 &&
+      root.offset[2] == 0.0 && clip.frame_count > 0) {
     double lowest_rest = 0.0;
     for (const glm::dmat4& g : rest) lowest_rest = std::min(lowest_rest, g[3][1]);
     double floor = std::numeric_limits<double>::infinity();
@@ -670,7 +758,9 @@ std::vector<float> BvhRetarget::pose(int32_t frame) const {
     const int32_t j = map_.source[b];
     // Head: carried by the parent (rest offset in the parent's frame), or the root motion.
     glm::dvec3 head(rest[b][3]);
-    if (parent >= 0) head = glm::dvec3(posed[static_cast<size_t>(parent)] * glm::inverse(rest[static_cast<size_t>(parent)]) * rest[b][3]);
+    if (parent >= 0)
+      head =
+          glm::dvec3(posed[static_cast<size_t>(parent)] * glm::inverse(rest[static_cast<size_t>(parent)]) * rest[b][3]);
     if (static_cast<int32_t>(b) == map_.root_bone) {
       const glm::dvec3 p(g[static_cast<size_t>(j)][3]);
       const glm::dvec3 d = p - glm::dvec3(root_rest_[0], root_rest_[1], root_rest_[2]);
@@ -678,8 +768,8 @@ std::vector<float> BvhRetarget::pose(int32_t frame) const {
     }
     glm::dmat3 r;
     if (j >= 0) {
-      const glm::dmat3 delta = A3 * rotation_of(g[static_cast<size_t>(j)]) *
-                               glm::transpose(rotation_of(g0[static_cast<size_t>(j)])) * Ai3;
+      const glm::dmat3 delta =
+          A3 * rotation_of(g[static_cast<size_t>(j)]) * glm::transpose(rotation_of(g0[static_cast<size_t>(j)])) * Ai3;
       const auto& s = swing_[b];
       r = delta * glm::mat3_cast(glm::dquat(s[0], s[1], s[2], s[3])) * rotation_of(rest[b]);
     } else if (parent >= 0) {

@@ -37,8 +37,7 @@ struct AccessorData {
   bool normalized = false;
 };
 
-AccessorData accessor_data(const tinygltf::Model& m, int index, int expected_type,
-                           const std::string& what) {
+AccessorData accessor_data(const tinygltf::Model& m, int index, int expected_type, const std::string& what) {
   if (index < 0 || static_cast<size_t>(index) >= m.accessors.size())
     fail(what + ": accessor " + std::to_string(index) + " does not exist");
   const tinygltf::Accessor& acc = m.accessors[static_cast<size_t>(index)];
@@ -102,8 +101,7 @@ double read_component(const unsigned char* p, int type, bool normalized) {
 }
 
 /// All elements of an accessor as floats: count * components values.
-std::vector<float> read_floats(const tinygltf::Model& m, int index, int expected_type,
-                               const std::string& what) {
+std::vector<float> read_floats(const tinygltf::Model& m, int index, int expected_type, const std::string& what) {
   const AccessorData d = accessor_data(m, index, expected_type, what);
   const auto nc = static_cast<size_t>(d.components);
   std::vector<float> out(d.count * nc, 0.0f);
@@ -118,8 +116,7 @@ std::vector<float> read_floats(const tinygltf::Model& m, int index, int expected
 }
 
 /// All elements of an unsigned-integer accessor (indices, joints).
-std::vector<uint32_t> read_uints(const tinygltf::Model& m, int index, int expected_type,
-                                 const std::string& what) {
+std::vector<uint32_t> read_uints(const tinygltf::Model& m, int index, int expected_type, const std::string& what) {
   const AccessorData d = accessor_data(m, index, expected_type, what);
   if ((d.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
        d.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
@@ -133,8 +130,8 @@ std::vector<uint32_t> read_uints(const tinygltf::Model& m, int index, int expect
       static_cast<size_t>(tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(d.component_type)));
   for (size_t i = 0; i < d.count; ++i)
     for (size_t k = 0; k < nc; ++k)
-      out[i * nc + k] = static_cast<uint32_t>(
-          read_component(d.data + i * d.stride + k * component_size, d.component_type, false));
+      out[i * nc + k] =
+          static_cast<uint32_t>(read_component(d.data + i * d.stride + k * component_size, d.component_type, false));
   return out;
 }
 
@@ -142,10 +139,10 @@ std::vector<uint32_t> read_uints(const tinygltf::Model& m, int index, int expect
 // File node hierarchy
 
 struct FileNodes {
-  std::vector<int> parent;          // per file node, -1 for a root
-  std::vector<glm::dmat4> local;    // rest local matrices
-  std::vector<glm::dmat4> global;   // rest global matrices (file world space)
-  std::vector<size_t> order;        // parents before children (depth first, file order)
+  std::vector<int> parent;         // per file node, -1 for a root
+  std::vector<glm::dmat4> local;   // rest local matrices
+  std::vector<glm::dmat4> global;  // rest global matrices (file world space)
+  std::vector<size_t> order;       // parents before children (depth first, file order)
 };
 
 glm::dmat4 node_local_matrix(const tinygltf::Node& n) {
@@ -204,8 +201,8 @@ tinygltf::Model read_model(const std::string& path) {
   }
   tinygltf::TinyGLTF loader;
   // We never need pixels: accept every image without decoding it (no stb_image).
-  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int,
-                           const unsigned char*, int, void*) { return true; },
+  loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
+                           void*) { return true; },
                         nullptr);
   tinygltf::Model model;
   std::string err, warn;
@@ -237,8 +234,7 @@ int find_skin(const tinygltf::Model& m, std::vector<int>& meshes) {
 
 /// Skin joints reordered so that parents come first. Returns bone -> skin joint index and
 /// fills joint_parent (skin joint -> parent skin joint, -1).
-std::vector<size_t> order_joints(const tinygltf::Skin& skin, const FileNodes& f,
-                                 std::vector<int>& joint_parent) {
+std::vector<size_t> order_joints(const tinygltf::Skin& skin, const FileNodes& f, std::vector<int>& joint_parent) {
   const size_t nj = skin.joints.size();
   std::vector<int> joint_of_node(f.parent.size(), -1);
   for (size_t j = 0; j < nj; ++j) {
@@ -267,8 +263,8 @@ std::vector<size_t> order_joints(const tinygltf::Skin& skin, const FileNodes& f,
 
 /// The joint nodes and their ancestors, parents first, as a NodeTree (without root_transform).
 /// file_to_tree receives each file node's index in the tree (-1 when not kept).
-NodeTree build_node_tree(const tinygltf::Model& m, const FileNodes& f,
-                         const std::vector<int>& bone_file_nodes, std::vector<int>& file_to_tree) {
+NodeTree build_node_tree(const tinygltf::Model& m, const FileNodes& f, const std::vector<int>& bone_file_nodes,
+                         std::vector<int>& file_to_tree) {
   std::vector<bool> keep(m.nodes.size(), false);
   for (int node : bone_file_nodes)
     for (int a = node; a >= 0 && !keep[static_cast<size_t>(a)]; a = f.parent[static_cast<size_t>(a)])
@@ -283,8 +279,7 @@ NodeTree build_node_tree(const tinygltf::Model& m, const FileNodes& f,
     // Rest TRS. For nodes given as a matrix it is a decomposition (ignoring shear), only used
     // if a (non-conforming) file animates such a node.
     const glm::dmat4& l = f.local[i];
-    const glm::dvec3 s(glm::length(glm::dvec3(l[0])), glm::length(glm::dvec3(l[1])),
-                       glm::length(glm::dvec3(l[2])));
+    const glm::dvec3 s(glm::length(glm::dvec3(l[0])), glm::length(glm::dvec3(l[1])), glm::length(glm::dvec3(l[2])));
     const glm::dmat3 rotation{glm::dvec3(l[0]) / s.x, glm::dvec3(l[1]) / s.y, glm::dvec3(l[2]) / s.z};
     const glm::dquat q = glm::normalize(glm::quat_cast(rotation));
     const double trs[10] = {l[3].x, l[3].y, l[3].z, q.x, q.y, q.z, q.w, s.x, s.y, s.z};
@@ -303,14 +298,13 @@ NodeTree build_node_tree(const tinygltf::Model& m, const FileNodes& f,
 struct RawMesh {
   std::vector<float> positions;
   std::vector<int32_t> triangles;
-  std::vector<int32_t> joints;   // #V*4 bone indices
-  std::vector<float> weights;    // #V*4
+  std::vector<int32_t> joints;  // #V*4 bone indices
+  std::vector<float> weights;   // #V*4
   std::vector<bool> weighted;
 };
 
 void read_primitive(const tinygltf::Model& m, const tinygltf::Primitive& prim,
-                    const std::vector<int32_t>& bone_of_joint, RawMesh& out,
-                    const std::string& what) {
+                    const std::vector<int32_t>& bone_of_joint, RawMesh& out, const std::string& what) {
   if (prim.mode != -1 && prim.mode != TINYGLTF_MODE_TRIANGLES)
     fail(what + ": only TRIANGLES primitives are supported (mode " + std::to_string(prim.mode) + ")");
   const auto attribute = [&](const std::string& name) {
@@ -363,8 +357,7 @@ void read_primitive(const tinygltf::Model& m, const tinygltf::Primitive& prim,
       }
     int32_t bj[4];
     float bw[4];
-    const bool ok = detail::top4_normalised(bones.data(), weights.data(),
-                                            static_cast<int>(bones.size()), bj, bw);
+    const bool ok = detail::top4_normalised(bones.data(), weights.data(), static_cast<int>(bones.size()), bj, bw);
     out.joints.insert(out.joints.end(), bj, bj + 4);
     out.weights.insert(out.weights.end(), bw, bw + 4);
     out.weighted.push_back(ok);
@@ -412,21 +405,30 @@ Animation read_animation(const tinygltf::Model& m, size_t index, const std::vect
   double first = std::numeric_limits<double>::infinity(), last = -first;
   for (const tinygltf::AnimationChannel& ch : a.channels) {
     Channel c;
-    if (ch.target_path == "translation") c.path = Channel::Path::Translation;
-    else if (ch.target_path == "rotation") c.path = Channel::Path::Rotation;
-    else if (ch.target_path == "scale") c.path = Channel::Path::Scale;
-    else continue;  // morph target weights: not part of the skeleton
+    if (ch.target_path == "translation")
+      c.path = Channel::Path::Translation;
+    else if (ch.target_path == "rotation")
+      c.path = Channel::Path::Rotation;
+    else if (ch.target_path == "scale")
+      c.path = Channel::Path::Scale;
+    else
+      continue;  // morph target weights: not part of the skeleton
     if (ch.sampler < 0 || static_cast<size_t>(ch.sampler) >= a.samplers.size())
       fail(what + ": sampler index out of range");
     const tinygltf::AnimationSampler& s = a.samplers[static_cast<size_t>(ch.sampler)];
-    if (s.interpolation.empty() || s.interpolation == "LINEAR") c.interpolation = Channel::Interpolation::Linear;
-    else if (s.interpolation == "STEP") c.interpolation = Channel::Interpolation::Step;
-    else if (s.interpolation == "CUBICSPLINE") c.interpolation = Channel::Interpolation::CubicSpline;
-    else fail(what + ": unknown interpolation " + s.interpolation);
+    if (s.interpolation.empty() || s.interpolation == "LINEAR")
+      c.interpolation = Channel::Interpolation::Linear;
+    else if (s.interpolation == "STEP")
+      c.interpolation = Channel::Interpolation::Step;
+    else if (s.interpolation == "CUBICSPLINE")
+      c.interpolation = Channel::Interpolation::CubicSpline;
+    else
+      fail(what + ": unknown interpolation " + s.interpolation);
     c.times = read_floats(m, s.input, TINYGLTF_TYPE_SCALAR, what + " input");
     const bool rotation = c.path == Channel::Path::Rotation;
     c.values = read_floats(m, s.output, rotation ? TINYGLTF_TYPE_VEC4 : TINYGLTF_TYPE_VEC3, what + " output");
-    const size_t per_key = size_t{rotation ? 4u : 3u} * (c.interpolation == Channel::Interpolation::CubicSpline ? 3u : 1u);
+    const size_t per_key =
+        size_t{rotation ? 4u : 3u} * (c.interpolation == Channel::Interpolation::CubicSpline ? 3u : 1u);
     if (c.values.size() != c.times.size() * per_key) fail(what + ": key and value counts differ");
     if (c.times.empty()) continue;
     for (size_t k = 0; k < c.times.size(); ++k)

@@ -86,7 +86,8 @@ MeshData read_mesh(const std::string& path, int* dropped_faces) {
   for (const auto vh : mesh.vertices()) {
     const auto p = mesh.point(vh);
     for (int k = 0; k < 3; ++k) {
-      if (!std::isfinite(p[k])) throw std::runtime_error(path + ": vertex " + std::to_string(vh.idx()) + " is not finite");
+      if (!std::isfinite(p[k]))
+        throw std::runtime_error(path + ": vertex " + std::to_string(vh.idx()) + " is not finite");
       m.positions.push_back(static_cast<float>(p[k]));
     }
   }
@@ -94,7 +95,8 @@ MeshData read_mesh(const std::string& path, int* dropped_faces) {
   for (const auto fh : mesh.faces()) {
     std::vector<int32_t> corners;
     for (const auto vh : mesh.fv_range(fh)) corners.push_back(vh.idx());
-    for (size_t i = 1; i + 1 < corners.size(); ++i) m.triangles.insert(m.triangles.end(), {corners[0], corners[i], corners[i + 1]});
+    for (size_t i = 1; i + 1 < corners.size(); ++i)
+      m.triangles.insert(m.triangles.end(), {corners[0], corners[i], corners[i + 1]});
   }
   if (dropped_faces) {
     // OpenMesh drops faces it cannot add (complex edges); count the file's faces for OBJ/OFF.
@@ -130,7 +132,8 @@ void write_obj(const std::string& path, const float* p, size_t n, const std::vec
     if (buf.size() > (1 << 20)) flush();
   }
   for (size_t t = 0; t + 2 < triangles.size(); t += 3) {
-    const int len = std::snprintf(line, sizeof line, "f %d %d %d\n", triangles[t] + 1, triangles[t + 1] + 1, triangles[t + 2] + 1);
+    const int len =
+        std::snprintf(line, sizeof line, "f %d %d %d\n", triangles[t] + 1, triangles[t + 1] + 1, triangles[t + 2] + 1);
     buf.append(line, static_cast<size_t>(len));
     if (buf.size() > (1 << 20)) flush();
   }

@@ -105,8 +105,8 @@ Character refine_catmull_clark(const Character& c, int levels) {
   std::iota(bones.begin(), bones.end(), 0);
   for (size_t v = 0; v < out_nv; ++v) {
     // Catmull-Clark masks are convex, so every refined vertex keeps a positive weight.
-    if (!detail::top4_normalised(bones.data(), &dense[v * nb], static_cast<int>(nb),
-                                 &out.skin_joints[4 * v], &out.skin_weights[4 * v]))
+    if (!detail::top4_normalised(bones.data(), &dense[v * nb], static_cast<int>(nb), &out.skin_joints[4 * v],
+                                 &out.skin_weights[4 * v]))
       throw std::runtime_error("refine_catmull_clark: a refined vertex lost all its weights");
   }
 

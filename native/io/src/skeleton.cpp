@@ -11,9 +11,7 @@
 namespace sd::io::detail {
 namespace {
 
-glm::dvec3 vec3_at(const std::vector<float>& v, size_t i) {
-  return {v[3 * i], v[3 * i + 1], v[3 * i + 2]};
-}
+glm::dvec3 vec3_at(const std::vector<float>& v, size_t i) { return {v[3 * i], v[3 * i + 1], v[3 * i + 2]}; }
 
 }  // namespace
 
@@ -75,9 +73,12 @@ void compute_bone_heads_tails(Character& c, double mesh_size) {
         }
       }
       const double far_dist = glm::length(farthest - head[b]);
-      if (has_continuing) tail[b] = continuing;  // e.g. upper spine -> neck
-      else if (glm::length(mean - head[b]) >= 0.25 * far_dist) tail[b] = mean;  // e.g. hand -> fingers
-      else tail[b] = farthest;  // children on opposite sides, e.g. hips -> spine and legs
+      if (has_continuing)
+        tail[b] = continuing;  // e.g. upper spine -> neck
+      else if (glm::length(mean - head[b]) >= 0.25 * far_dist)
+        tail[b] = mean;  // e.g. hand -> fingers
+      else
+        tail[b] = farthest;  // children on opposite sides, e.g. hips -> spine and legs
       found = far_dist >= min_len;
     }
     if (!found) {  // leaf, or children at the head: half the parent's length
@@ -121,21 +122,20 @@ int32_t nearest_bone(const Character& c, const float* p) {
   return best;
 }
 
-bool top4_normalised(const int32_t* joints, const float* weights, int n,
-                     int32_t* out_joints, float* out_weights) {
+bool top4_normalised(const int32_t* joints, const float* weights, int n, int32_t* out_joints, float* out_weights) {
   // Merge repeated joints first: some exporters split one bone's weight over two slots.
   std::vector<std::pair<int32_t, double>> merged;
   for (int i = 0; i < n; ++i) {
     if (!(weights[i] > 0.0f)) continue;
-    auto it = std::find_if(merged.begin(), merged.end(),
-                           [&](const auto& jw) { return jw.first == joints[i]; });
-    if (it == merged.end()) merged.emplace_back(joints[i], weights[i]);
-    else it->second += weights[i];
+    auto it = std::find_if(merged.begin(), merged.end(), [&](const auto& jw) { return jw.first == joints[i]; });
+    if (it == merged.end())
+      merged.emplace_back(joints[i], weights[i]);
+    else
+      it->second += weights[i];
   }
   if (merged.empty()) return false;
   // Stable, so equal weights keep the file's order (deterministic output).
-  std::stable_sort(merged.begin(), merged.end(),
-                   [](const auto& a, const auto& b) { return a.second > b.second; });
+  std::stable_sort(merged.begin(), merged.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
   merged.resize(std::min<size_t>(merged.size(), 4));
   double sum = 0.0;
   for (const auto& jw : merged) sum += jw.second;

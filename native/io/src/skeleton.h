@@ -18,7 +18,6 @@ int32_t nearest_bone(const Character& c, const float* p);
 /// Merges repeated joints, keeps the 4 largest positive influences of a vertex, sorted by decreasing weight and
 /// normalised to sum 1; unused slots get index 0 and weight 0. n = number of inputs.
 /// Returns false (and writes nothing) when no weight is positive.
-bool top4_normalised(const int32_t* joints, const float* weights, int n,
-                     int32_t* out_joints, float* out_weights);
+bool top4_normalised(const int32_t* joints, const float* weights, int n, int32_t* out_joints, float* out_weights);
 
 }  // namespace sd::io::detail

@@ -13,8 +13,10 @@ class Report {
  public:
   void add(const std::string& kind, const std::string& detail) {
     const int n = ++count_[kind];
-    if (n <= 3) out_ << kind << ": " << detail << '\n';
-    else if (n == 4) out_ << kind << ": (more problems of this kind)\n";
+    if (n <= 3)
+      out_ << kind << ": " << detail << '\n';
+    else if (n == 4)
+      out_ << kind << ": (more problems of this kind)\n";
   }
   std::string str() const { return out_.str(); }
 
@@ -31,8 +33,7 @@ bool all_finite(const std::vector<float>& v) {
 
 bool size_is(Report& r, const char* name, size_t size, size_t expected) {
   if (size == expected) return true;
-  r.add("size", std::string(name) + " has " + std::to_string(size) + " values, expected " +
-                    std::to_string(expected));
+  r.add("size", std::string(name) + " has " + std::to_string(size) + " values, expected " + std::to_string(expected));
   return false;
 }
 
@@ -52,8 +53,8 @@ void validate_nodes(const Character& c, size_t nb, Report& r) {
   if (!ok) return;
   for (size_t n = 0; n < nn; ++n)
     if (t.parents[n] < -1 || t.parents[n] >= static_cast<int32_t>(n))
-      r.add("nodes", "node " + std::to_string(n) + " has parent " + std::to_string(t.parents[n]) +
-                         " (parents must come first)");
+      r.add("nodes",
+            "node " + std::to_string(n) + " has parent " + std::to_string(t.parents[n]) + " (parents must come first)");
   for (size_t b = 0; b < nb; ++b)
     if (t.bone_node[b] < 0 || static_cast<size_t>(t.bone_node[b]) >= nn)
       r.add("nodes", "bone " + std::to_string(b) + " has node " + std::to_string(t.bone_node[b]));
@@ -90,8 +91,10 @@ std::string validate(const Character& c) {
   for (size_t t = 0; t + 2 < c.triangles.size(); t += 3) {
     const int32_t a = c.triangles[t], b = c.triangles[t + 1], d = c.triangles[t + 2];
     const auto in = [&](int32_t i) { return i >= 0 && static_cast<size_t>(i) < nv; };
-    if (!in(a) || !in(b) || !in(d)) r.add("triangles", "triangle " + std::to_string(t / 3) + " index out of range");
-    else if (a == b || b == d || d == a) r.add("triangles", "triangle " + std::to_string(t / 3) + " repeats a vertex");
+    if (!in(a) || !in(b) || !in(d))
+      r.add("triangles", "triangle " + std::to_string(t / 3) + " index out of range");
+    else if (a == b || b == d || d == a)
+      r.add("triangles", "triangle " + std::to_string(t / 3) + " repeats a vertex");
   }
 
   bool bones_ok = size_is(r, "bone_parents", c.bone_parents.size(), nb);
@@ -134,8 +137,10 @@ std::string validate(const Character& c) {
         ok = ok && j >= 0 && static_cast<size_t>(j) < nb && std::isfinite(w) && w >= 0.0f;
         sum += w;
       }
-      if (!ok) r.add("skin", "vertex " + std::to_string(v) + " has a bone index out of range or a bad weight");
-      else if (std::abs(sum - 1.0) > 1e-4) r.add("skin", "vertex " + std::to_string(v) + " weights sum to " + std::to_string(sum));
+      if (!ok)
+        r.add("skin", "vertex " + std::to_string(v) + " has a bone index out of range or a bad weight");
+      else if (std::abs(sum - 1.0) > 1e-4)
+        r.add("skin", "vertex " + std::to_string(v) + " weights sum to " + std::to_string(sum));
     }
   }
 

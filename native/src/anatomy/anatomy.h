@@ -20,15 +20,15 @@
 #include "anatomy/bone_protrusion.h"
 #include "anatomy/falloff.h"
 #include "anatomy/joint.h"
-#include "anatomy/mesh_topology.h"
-#include "anatomy/mesh_volume.h"
+#include "geometry/mesh_topology.h"
+#include "geometry/mesh_volume.h"
 #include "anatomy/muscle_bulge.h"
-#include "anatomy/self_intersection.h"
+#include "geometry/self_intersection.h"
 #include "anatomy/skin_folding.h"
 #include "anatomy/skin_parts.h"
-#include "bind.h"
-#include "deform.h"
-#include "rig.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "rig/rig.h"
 
 #include <memory>
 #include <vector>
@@ -45,25 +45,25 @@ enum class VolumeFeedback {
 
 struct AnatomyStats {
     // Milliseconds of the last frame, per stage.
-    double ms_sweeps = 0, ms_bulge = 0, ms_protrusion = 0, ms_collision = 0, ms_folding = 0,
-           ms_volume = 0, ms_total = 0;
-    int collision_triangles = 0;   ///< triangles in the enabled joint regions
-    int pairs_before = 0;          ///< intersecting pairs found after sweeps, bulge, protrusion
-    int pairs_after = 0;           ///< left after folding
+    double ms_sweeps = 0, ms_bulge = 0, ms_protrusion = 0, ms_collision = 0, ms_folding = 0, ms_volume = 0,
+           ms_total = 0;
+    int collision_triangles = 0;  ///< triangles in the enabled joint regions
+    int pairs_before = 0;         ///< intersecting pairs found after sweeps, bulge, protrusion
+    int pairs_after = 0;          ///< left after folding
     int folding_iterations = 0;
-    int folding_regions = 0;       ///< intersection regions folded (over all iterations)
+    int folding_regions = 0;  ///< intersection regions folded (over all iterations)
     int bulge_vertices = 0, protrusion_vertices = 0, folding_vertices = 0, falloff_vertices = 0;
-    int relaxed_vertices = 0;      ///< smoothed to untangle what the planes left
+    int relaxed_vertices = 0;  ///< smoothed to untangle what the planes left
     double max_bulge = 0, max_protrusion = 0, max_fold_depth = 0;
-    double volume_change = 0;      ///< Σ I_C over the sweeps handed to the deformer (units^3)
-    double effects_volume = 0;     ///< Σ volume bulge, protrusion and folding added (with the
-                                   ///< restoration on: bulge and protrusion only)
-    double restored_volume = 0;    ///< Σ volume the restoration added
-    int passes = 0;                ///< sweep + effects passes (2 with VolumeFeedback::InFrame)
-    double ms_first_detection = 0; ///< of ms_collision: the full query (the rest re-checks)
-    int rechecks = 0;              ///< re-check queries after folding or restoration
-    long rechecked_triangles = 0;  ///< triangles they were asked about
-    long triangle_tests = 0;       ///< exact triangle-triangle tests run
+    double volume_change = 0;       ///< Σ I_C over the sweeps handed to the deformer (units^3)
+    double effects_volume = 0;      ///< Σ volume bulge, protrusion and folding added (with the
+                                    ///< restoration on: bulge and protrusion only)
+    double restored_volume = 0;     ///< Σ volume the restoration added
+    int passes = 0;                 ///< sweep + effects passes (2 with VolumeFeedback::InFrame)
+    double ms_first_detection = 0;  ///< of ms_collision: the full query (the rest re-checks)
+    int rechecks = 0;               ///< re-check queries after folding or restoration
+    long rechecked_triangles = 0;   ///< triangles they were asked about
+    long triangle_tests = 0;        ///< exact triangle-triangle tests run
 };
 
 class Anatomy {
@@ -160,7 +160,7 @@ private:
     SkinParts parts_;
     std::vector<Joint> joints_;
     std::vector<std::vector<int32_t>> region_triangles_;  // per joint
-    std::vector<double> region_edge_;                      // per joint: mean rest edge length
+    std::vector<double> region_edge_;                     // per joint: mean rest edge length
     std::vector<BoneProxy> proxies_;
     std::vector<MuscleBulge> muscles_;
 
@@ -188,7 +188,7 @@ private:
     std::vector<dquat> zone_rotations_;
     int folding_iterations_ = 10;
     std::vector<double> offsets_;
-    std::vector<double> applied_;  // the offsets last handed to a deformer
+    std::vector<double> applied_;                      // the offsets last handed to a deformer
     std::vector<double> early_change_, total_change_;  // per sweep: after bulge+protrusion, after folding
     const float* current_ = nullptr;                   // the positions of the frame being made
     AnatomyStats stats_;

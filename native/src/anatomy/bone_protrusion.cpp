@@ -10,12 +10,12 @@ namespace sd::anatomy {
 ProxyShape ellipsoid_shape(const dvec3& center, const dmat3& axes, const dvec3& semi, int subdivisions) {
     // Icosahedron, then midpoint subdivision projected to the unit sphere.
     const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-    std::vector<dvec3> v = {{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}};
+    std::vector<dvec3> v = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                            {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
     for (dvec3& p : v) p = glm::normalize(p);
-    std::vector<int32_t> f = {0, 11, 5, 0, 5, 1, 0, 1, 7, 0, 7, 10, 0, 10, 11, 1, 5, 9, 5, 11, 4,
-                              11, 10, 2, 10, 7, 6, 7, 1, 8, 3, 9, 4, 3, 4, 2, 3, 2, 6, 3, 6, 8,
-                              3, 8, 9, 4, 9, 5, 2, 4, 11, 6, 2, 10, 8, 6, 7, 9, 8, 1};
+    std::vector<int32_t> f = {0, 11, 5,  0, 5,  1, 0, 1, 7, 0, 7,  10, 0, 10, 11, 1, 5, 9, 5, 11,
+                              4, 11, 10, 2, 10, 7, 6, 7, 1, 8, 3,  9,  4, 3,  4,  2, 3, 2, 6, 3,
+                              6, 8,  3,  8, 9,  4, 9, 5, 2, 4, 11, 6,  2, 10, 8,  6, 7, 9, 8, 1};
     for (int level = 0; level < subdivisions; ++level) {
         std::map<std::pair<int32_t, int32_t>, int32_t> mid;
         const auto midpoint = [&](int32_t a, int32_t b) {
@@ -36,7 +36,8 @@ ProxyShape ellipsoid_shape(const dvec3& center, const dmat3& axes, const dvec3& 
     ProxyShape s;
     for (const dvec3& p : v) {
         const dvec3 q = center + axes * (semi * p);
-        s.positions.insert(s.positions.end(), {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
+        s.positions.insert(s.positions.end(),
+                           {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z)});
     }
     s.triangles = f;
     return s;
@@ -89,8 +90,8 @@ BoneProxy::BoneProxy(int joint, double fraction, ProxyShape shape, std::string n
         const dvec3 b = at(shape_.positions, shape_.triangles[3 * t + 1]);
         const dvec3 c = at(shape_.positions, shape_.triangles[3 * t + 2]);
         if (!(glm::dot(glm::cross(b - a, c - a), a - center_) > 0.0))
-            throw InvalidInput("a bone proxy must be star-shaped about its centroid (triangle " +
-                               std::to_string(t) + " faces it)");
+            throw InvalidInput("a bone proxy must be star-shaped about its centroid (triangle " + std::to_string(t) +
+                               " faces it)");
     }
     for (int i = 0; i < N; ++i) bound_ = std::max(bound_, glm::length(at(shape_.positions, i) - center_));
     anchor_ = center_;
@@ -124,8 +125,8 @@ void BoneProxy::set_anchor(const dvec3& anchor) {
         anchor_bound_ = std::max(anchor_bound_, glm::length(at(shape_.positions, static_cast<int>(i)) - anchor_));
 }
 
-double BoneProxy::push(const dmat4& transform, const float* p, double strength,
-                       std::vector<int32_t>& sources, std::vector<dvec3>& deltas) const {
+double BoneProxy::push(const dmat4& transform, const float* p, double strength, std::vector<int32_t>& sources,
+                       std::vector<dvec3>& deltas) const {
     const dmat4 inv = glm::inverse(transform);
     const dmat3 lin(transform);
     const double b2 = anchor_bound_ * anchor_bound_;

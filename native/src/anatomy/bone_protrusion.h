@@ -19,10 +19,10 @@
 // grows smoothly with flexion.
 #pragma once
 
-#include "anatomy/bvh.h"
+#include "geometry/bvh.h"
 #include "anatomy/falloff.h"
-#include "anatomy/mesh_topology.h"
-#include "math_types.h"
+#include "geometry/mesh_topology.h"
+#include "math/math_types.h"
 
 #include <string>
 #include <vector>
@@ -84,8 +84,8 @@ public:
     /// displacement (world space) that brings it there, times `strength`. Appends to
     /// sources/deltas.
     /// @return the largest displacement length
-    double push(const dmat4& transform, const float* positions, double strength,
-                std::vector<int32_t>& sources, std::vector<dvec3>& deltas) const;
+    double push(const dmat4& transform, const float* positions, double strength, std::vector<int32_t>& sources,
+                std::vector<dvec3>& deltas) const;
 
 private:
     int joint_;

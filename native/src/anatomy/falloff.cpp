@@ -24,10 +24,9 @@ void Falloff::reset(int V) {
     touched_.clear();
 }
 
-int Falloff::apply(const MeshTopology& mesh, const std::vector<int32_t>& sources,
-                   const std::vector<dvec3>& deltas, double radius, const int32_t* labels,
-                   const uint8_t* label_allowed, float* p, VertexEdits& edits, int owner,
-                   std::vector<int32_t>* moved) {
+int Falloff::apply(const MeshTopology& mesh, const std::vector<int32_t>& sources, const std::vector<dvec3>& deltas,
+                   double radius, const int32_t* labels, const uint8_t* label_allowed, float* p, VertexEdits& edits,
+                   int owner, std::vector<int32_t>* moved) {
     if (static_cast<int>(dist_.size()) != mesh.vertex_count) reset(mesh.vertex_count);
     // Multi-source Dijkstra bounded by the radius.
     using Item = std::pair<float, int32_t>;

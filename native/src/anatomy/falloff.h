@@ -8,8 +8,8 @@
 // with zero slope at the source and 0 with zero slope at the radius.
 #pragma once
 
-#include "anatomy/mesh_topology.h"
-#include "math_types.h"
+#include "geometry/mesh_topology.h"
+#include "math/math_types.h"
 
 #include <cstdint>
 #include <vector>
@@ -51,10 +51,9 @@ public:
     /// has l >= 0 and label_allowed[l] != 0. Moved vertices are recorded in `edits` (and
     /// appended to `moved` when given).
     /// @return the number of falloff (non-source) vertices moved
-    int apply(const MeshTopology& mesh, const std::vector<int32_t>& sources,
-              const std::vector<dvec3>& deltas, double radius, const int32_t* labels,
-              const uint8_t* label_allowed, float* positions, VertexEdits& edits, int owner,
-              std::vector<int32_t>* moved = nullptr);
+    int apply(const MeshTopology& mesh, const std::vector<int32_t>& sources, const std::vector<dvec3>& deltas,
+              double radius, const int32_t* labels, const uint8_t* label_allowed, float* positions, VertexEdits& edits,
+              int owner, std::vector<int32_t>* moved = nullptr);
 
 private:
     std::vector<float> dist_;

@@ -33,8 +33,7 @@ Joint make_joint(const Rig& rig, int lower_bone, JointKind kind, const dvec3* fl
             }
         }
     if (j.sweep < 0)
-        throw InvalidInput("no sweep has a joint key ellipse whose lower link is bone " +
-                           std::to_string(lower_bone));
+        throw InvalidInput("no sweep has a joint key ellipse whose lower link is bone " + std::to_string(lower_bone));
     const Sweep& sw = rig.sweeps[j.sweep];
     j.key_ellipse = sw.keys[j.key];
     j.upper_bone = j.key_ellipse.joint_parent;
@@ -61,9 +60,8 @@ Joint make_joint(const Rig& rig, int lower_bone, JointKind kind, const dvec3* fl
     // joint: ~3.9 r at 150 degrees), within the shorter link; around a generic joint (armpit,
     // groin, neck) 1.6 times its key ellipse's larger half-axis.
     const double r = std::max(j.key_ellipse.a, j.key_ellipse.b);
-    j.auto_region_radius = kind == JointKind::Generic
-                          ? 1.6 * r
-                          : std::min(0.7 * std::min(j.upper_length, j.lower_length), 5.0 * r);
+    j.auto_region_radius =
+        kind == JointKind::Generic ? 1.6 * r : std::min(0.7 * std::min(j.upper_length, j.lower_length), 5.0 * r);
     j.region_radius = j.auto_region_radius;
     return j;
 }

@@ -4,9 +4,9 @@
 // and what a pose does to it (flexion angle, the transforms bone proxies ride on).
 #pragma once
 
-#include "math_types.h"
-#include "rig.h"
-#include "skeleton.h"
+#include "math/math_types.h"
+#include "rig/rig.h"
+#include "rig/skeleton.h"
 
 namespace sd::anatomy {
 
@@ -15,9 +15,9 @@ enum class JointKind { Generic = 0, Elbow = 1, Knee = 2 };
 /// Per-joint switches and strengths (the modifier panel's controls). Lengths are in the
 /// rig's units; 0 means "automatic" where stated.
 struct JointSettings {
-    bool folding = true;     ///< collision-driven skin folding in the joint's region
-    bool protrusion = true;  ///< bone proxies (olecranon, patella, user meshes)
-    bool bulge = true;       ///< muscle bulge (biceps, calf)
+    bool folding = true;               ///< collision-driven skin folding in the joint's region
+    bool protrusion = true;            ///< bone proxies (olecranon, patella, user meshes)
+    bool bulge = true;                 ///< muscle bulge (biceps, calf)
     double protrusion_strength = 1.0;  ///< 0..2, scales the push out of a proxy
     double protrusion_falloff = 0.0;   ///< radius of the smooth falloff around pushed skin; 0 = auto
     double bulge_strength = 0.15;      ///< 0..1, peak outward push at full activation, share of the local radius
@@ -31,12 +31,12 @@ struct Joint {
     JointKind kind = JointKind::Generic;
     int sweep = -1, key = -1;
     int upper_bone = -1, lower_bone = -1;
-    dvec3 center{0.0};        ///< rest, the joint key's center
+    dvec3 center{0.0};                     ///< rest, the joint key's center
     dvec3 upper_dir{0.0}, lower_dir{0.0};  ///< rest link directions, unit
     /// Rest, unit, orthogonal to upper_dir: where the lower link goes when the joint flexes
     /// (the front for an elbow, the back for a knee); zero when unknown (generic joints).
     dvec3 flexion_dir{0.0};
-    double rest_bend = 0.0;   ///< signed rest angle of the lower link towards flexion_dir
+    double rest_bend = 0.0;  ///< signed rest angle of the lower link towards flexion_dir
     KeyEllipse key_ellipse;
     double upper_length = 0.0, lower_length = 0.0;
     double auto_region_radius = 0.0;  ///< the automatic collision region radius
@@ -55,9 +55,9 @@ Joint make_joint(const Rig& rig, int lower_bone, JointKind kind, const dvec3* fl
 
 /// What a pose does to a joint.
 struct JointPose {
-    dvec3 center{0.0};     ///< posed joint center
-    double flexion = 0.0;  ///< radians beyond the rest bend, towards the flexion direction
-    double bend = 0.0;     ///< unsigned angle between the posed link directions
+    dvec3 center{0.0};             ///< posed joint center
+    double flexion = 0.0;          ///< radians beyond the rest bend, towards the flexion direction
+    double bend = 0.0;             ///< unsigned angle between the posed link directions
     dmat4 upper{1.0}, lower{1.0};  ///< the links' deformation matrices
     dquat relative{1, 0, 0, 0};    ///< rotation of the lower link relative to the upper one
     dvec3 rest_center{0.0};

@@ -1,7 +1,7 @@
 #include "anatomy/muscle_bulge.h"
 
-#include "key_pose.h"
-#include "sweep.h"
+#include "rig/key_pose.h"
+#include "rig/sweep.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,9 +23,7 @@ double plateau(double x, double falloff) {
 
 }  // namespace
 
-double MuscleBulge::activation(double flexion, double full_flexion) {
-    return smoothstep(flexion / full_flexion);
-}
+double MuscleBulge::activation(double flexion, double full_flexion) { return smoothstep(flexion / full_flexion); }
 
 MuscleBulge::MuscleBulge(MuscleSpec spec, const Rig& rig, const SkinParts& parts, double falloff)
     : spec_(std::move(spec)) {
@@ -69,8 +67,8 @@ void MuscleBulge::set_falloff(const Rig& rig, const SkinParts& parts, double fal
     }
 }
 
-double MuscleBulge::apply(const Rig& rig, const SkeletonPose& pose, double flexion, double strength,
-                          float* p, VertexEdits& edits) const {
+double MuscleBulge::apply(const Rig& rig, const SkeletonPose& pose, double flexion, double strength, float* p,
+                          VertexEdits& edits) const {
     const double act = activation(flexion, spec_.full_flexion);
     if (!(act > 0.0) || !(strength > 0.0) || vertices_.empty()) return 0.0;
     std::vector<dvec3> centers;
@@ -80,7 +78,8 @@ double MuscleBulge::apply(const Rig& rig, const SkeletonPose& pose, double flexi
     const double k = strength * act;
     double largest = 0.0;
     for (size_t i = 0; i < vertices_.size(); ++i) {
-        const dvec3 radial = rotate_unnormalized(g.raw_rotation(span_[i], u_[i]), dvec3(dir_[2 * i], dir_[2 * i + 1], 0.0));
+        const dvec3 radial =
+            rotate_unnormalized(g.raw_rotation(span_[i], u_[i]), dvec3(dir_[2 * i], dir_[2 * i + 1], 0.0));
         const dvec3 delta = k * weight_[i] * radial;
         const int v = vertices_[i];
         edits.touch(v, p, spec_.joint);

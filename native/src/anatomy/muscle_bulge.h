@@ -15,8 +15,8 @@
 
 #include "anatomy/falloff.h"
 #include "anatomy/skin_parts.h"
-#include "rig.h"
-#include "skeleton.h"
+#include "rig/rig.h"
+#include "rig/skeleton.h"
 
 #include <string>
 #include <vector>
@@ -25,11 +25,11 @@ namespace sd::anatomy {
 
 struct MuscleSpec {
     std::string name;
-    int joint = -1;          ///< the joint whose flexion activates it
+    int joint = -1;  ///< the joint whose flexion activates it
     int sweep = -1;
-    double t0 = 0, t1 = 0;   ///< rest sweep parameter range (the sweep's knot units)
-    dvec3 side{0.0};         ///< rest direction of the sector's middle (unit)
-    double half_width = 1.3; ///< radians
+    double t0 = 0, t1 = 0;      ///< rest sweep parameter range (the sweep's knot units)
+    dvec3 side{0.0};            ///< rest direction of the sector's middle (unit)
+    double half_width = 1.3;    ///< radians
     double full_flexion = 1.9;  ///< radians of flexion beyond the rest pose at which activation reaches 1
 };
 
@@ -44,8 +44,8 @@ public:
     static double activation(double flexion, double full_flexion);
 
     /// Adds the bulge for `flexion` (radians) to positions. @return the largest displacement.
-    double apply(const Rig& rig, const SkeletonPose& pose, double flexion, double strength,
-                 float* positions, VertexEdits& edits) const;
+    double apply(const Rig& rig, const SkeletonPose& pose, double flexion, double strength, float* positions,
+                 VertexEdits& edits) const;
 
 private:
     MuscleSpec spec_;

@@ -1,5 +1,5 @@
 #include "anatomy/skin_folding.h"
-#include "anatomy/disjoint_sets.h"
+#include "geometry/disjoint_sets.h"
 
 #include <Eigen/Eigenvalues>
 
@@ -48,13 +48,10 @@ dvec3 vertex_normal(const MeshTopology& mesh, const float* p, int v) {
 
 }  // namespace
 
-FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
-                               const std::vector<TrianglePair>& pairs,
-                               const std::vector<dvec3>& part_reference,
-                               const std::vector<int32_t>& triangle_joint,
-                               const std::vector<FoldingParams>& params, float* p,
-                               VertexEdits& edits, Falloff& falloff, std::vector<int32_t>* moved,
-                               std::vector<TrianglePair>* single_part) {
+FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts, const std::vector<TrianglePair>& pairs,
+                               const std::vector<dvec3>& part_reference, const std::vector<int32_t>& triangle_joint,
+                               const std::vector<FoldingParams>& params, float* p, VertexEdits& edits, Falloff& falloff,
+                               std::vector<int32_t>* moved, std::vector<TrianglePair>* single_part) {
     FoldingStats stats;
     if (pairs.empty()) return stats;
     const int T = mesh.triangle_count(), V = mesh.vertex_count;
@@ -92,8 +89,8 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
         const std::vector<int32_t>& rt = region_tris[root];
         ++stats.regions;
         stamp_ += 2;
-        const int region_stamp = stamp_;         // vertex of the region
-        const int flood_stamp = stamp_ + 1;      // vertex reached by the flood
+        const int region_stamp = stamp_;     // vertex of the region
+        const int flood_stamp = stamp_ + 1;  // vertex reached by the flood
 
         // 1. Sides.
         std::map<std::pair<int32_t, int32_t>, int> counts;
@@ -111,7 +108,8 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
             side_of_part[best->first.second] = 1;
             for (int round = 0; round < 3; ++round)
                 for (size_t i : rp) {
-                    const int32_t la = triangle_part(mesh, parts, pairs[i].a), lb = triangle_part(mesh, parts, pairs[i].b);
+                    const int32_t la = triangle_part(mesh, parts, pairs[i].a),
+                                  lb = triangle_part(mesh, parts, pairs[i].b);
                     if (la == lb || la < 0 || lb < 0) continue;
                     const bool ha = side_of_part.count(la) > 0, hb = side_of_part.count(lb) > 0;
                     if (ha && !hb) side_of_part[lb] = -side_of_part[la];
@@ -269,7 +267,8 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
                 if (by_parts) {
                     sw = side_of(w);
                 } else {
-                    if (vertex_mark_[w] != region_stamp) vertex_side_[w] = glm::dot(vertex_normal(mesh, p, w), n) > 0.0 ? -1 : 1;
+                    if (vertex_mark_[w] != region_stamp)
+                        vertex_side_[w] = glm::dot(vertex_normal(mesh, p, w), n) > 0.0 ? -1 : 1;
                     sw = vertex_side_[w];
                 }
                 if (sw != s || !(depth(w, sw) > -soft) || !(depth(w, sw) < deepest) ||
@@ -289,11 +288,11 @@ FoldingStats SkinFolding::fold(const MeshTopology& mesh, const SkinParts& parts,
                 for (auto [label, s] : side_of_part)
                     if ((s > 0) == (side == 1) && label >= 0 && label < static_cast<int32_t>(label_mask_.size()))
                         label_mask_[label] = 1;
-                stats.falloff += falloff.apply(mesh, sources[side], deltas[side], fp.falloff_radius,
-                                               parts.part.data(), label_mask_.data(), p, edits, joint, moved);
+                stats.falloff += falloff.apply(mesh, sources[side], deltas[side], fp.falloff_radius, parts.part.data(),
+                                               label_mask_.data(), p, edits, joint, moved);
             } else {
-                stats.falloff += falloff.apply(mesh, sources[side], deltas[side], 0.0, nullptr, nullptr, p,
-                                               edits, joint, moved);
+                stats.falloff +=
+                    falloff.apply(mesh, sources[side], deltas[side], 0.0, nullptr, nullptr, p, edits, joint, moved);
             }
         }
     }

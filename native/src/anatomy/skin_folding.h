@@ -27,8 +27,8 @@
 #pragma once
 
 #include "anatomy/falloff.h"
-#include "anatomy/mesh_topology.h"
-#include "anatomy/self_intersection.h"
+#include "geometry/mesh_topology.h"
+#include "geometry/self_intersection.h"
 #include "anatomy/skin_parts.h"
 
 #include <cstdint>
@@ -49,8 +49,8 @@ struct FoldingParams {
 
 struct FoldingStats {
     int regions = 0;
-    int pulled = 0;      ///< vertices pulled back to a plane
-    int falloff = 0;     ///< neighbours moved by the falloff
+    int pulled = 0;               ///< vertices pulled back to a plane
+    int falloff = 0;              ///< neighbours moved by the falloff
     int single_part_regions = 0;  ///< regions whose sides came from normals
     double max_depth = 0.0;       ///< deepest penetration pulled back
 };
@@ -60,22 +60,19 @@ public:
     /// @param part_reference   #B posed reference point of each bone (its midpoint)
     /// @param triangle_joint   #T joint owning each triangle's region, or -1
     /// @param params           per joint
-    FoldingStats fold(const MeshTopology& mesh, const SkinParts& parts,
-                      const std::vector<TrianglePair>& pairs,
-                      const std::vector<dvec3>& part_reference,
-                      const std::vector<int32_t>& triangle_joint,
-                      const std::vector<FoldingParams>& params, float* positions,
-                      VertexEdits& edits, Falloff& falloff, std::vector<int32_t>* moved = nullptr,
-                      std::vector<TrianglePair>* single_part = nullptr);
+    FoldingStats fold(const MeshTopology& mesh, const SkinParts& parts, const std::vector<TrianglePair>& pairs,
+                      const std::vector<dvec3>& part_reference, const std::vector<int32_t>& triangle_joint,
+                      const std::vector<FoldingParams>& params, float* positions, VertexEdits& edits, Falloff& falloff,
+                      std::vector<int32_t>* moved = nullptr, std::vector<TrianglePair>* single_part = nullptr);
 
     /// Untangles what plane folding left, and skin crumpled within one part: `passes` Jacobi
     /// passes of uniform Laplacian smoothing (step 0.5) over the vertices of the pairs'
     /// triangles and the skin within `radius` (rest path length) of them.
     /// @return the number of vertices moved
     /// Vertices on no sweep (bone-driven: head, hands, feet) are left alone.
-    int relax(const MeshTopology& mesh, const SkinParts& parts, const std::vector<TrianglePair>& pairs,
-              double radius, int passes, float* positions, VertexEdits& edits,
-              const std::vector<int32_t>& triangle_joint, std::vector<int32_t>* moved = nullptr);
+    int relax(const MeshTopology& mesh, const SkinParts& parts, const std::vector<TrianglePair>& pairs, double radius,
+              int passes, float* positions, VertexEdits& edits, const std::vector<int32_t>& triangle_joint,
+              std::vector<int32_t>* moved = nullptr);
 
 private:
     std::vector<int32_t> local_of_triangle_, vertex_mark_, vertex_side_;

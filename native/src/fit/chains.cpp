@@ -53,8 +53,7 @@ struct Tree {
     std::vector<int> order;    ///< every bone after its parent
     double size = 1.0;         ///< diagonal of the heads' and tails' bounding box
 
-    Tree(const Skeleton& skeleton, const std::vector<double>& bone_mass)
-        : s(skeleton), count(skeleton.bone_count()) {
+    Tree(const Skeleton& skeleton, const std::vector<double>& bone_mass) : s(skeleton), count(skeleton.bone_count()) {
         children.resize(count);
         length.resize(count);
         reach.resize(count);
@@ -193,8 +192,7 @@ void split_limb(const Tree& t, int root, Chain* chain) {
 
 }  // namespace
 
-ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
-                     const std::vector<double>& bone_mass) {
+ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, const std::vector<double>& bone_mass) {
     const Tree t(s, bone_mass);
     ChainSet out;
     out.size = t.size;
@@ -242,8 +240,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
         legs.resize(2);
     }
     if (legs.size() != 2)
-        throw InvalidInput("automatic chains: expected two legs branching at the hips " + label(hips) +
-                           ", found " + std::to_string(legs.size()) + "; give the chains explicitly");
+        throw InvalidInput("automatic chains: expected two legs branching at the hips " + label(hips) + ", found " +
+                           std::to_string(legs.size()) + "; give the chains explicitly");
 
     const dvec3 hip = s.heads[hips];
     const auto leg_center = [&](int b) {
@@ -286,8 +284,7 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
         cur = next;
     }
     if (arms.size() > 2) {
-        std::sort(arms.begin(), arms.end(),
-                  [&](auto& a, auto& b) { return t.reach[a.first] > t.reach[b.first]; });
+        std::sort(arms.begin(), arms.end(), [&](auto& a, auto& b) { return t.reach[a.first] > t.reach[b.first]; });
         out.notes.push_back("more than two arm-like branches on the spine; kept the two longest");
         arms.resize(2);
     }
@@ -299,9 +296,8 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
     if (!arms.empty()) {
         chest_index = 0;
         for (const auto& a : arms)
-            chest_index =
-                std::max(chest_index,
-                         static_cast<int>(std::find(spine.begin(), spine.end(), a.second) - spine.begin()));
+            chest_index = std::max(chest_index,
+                                   static_cast<int>(std::find(spine.begin(), spine.end(), a.second) - spine.begin()));
     } else {
         chest_index = std::max(0, static_cast<int>(spine.size()) - 3);
     }
@@ -332,8 +328,7 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
     dvec3 up = top - hip;
     up -= glm::dot(up, lateral) * lateral;
     if (!(glm::length(up) > 1e-3 * t.size))
-        throw InvalidInput("automatic chains: the spine from " + label(hips) +
-                           " does not rise above the hips");
+        throw InvalidInput("automatic chains: the spine from " + label(hips) + " does not rise above the hips");
     up = glm::normalize(up);
     BodyFrame& frame = out.frame;
     frame.up = up;
@@ -412,8 +407,7 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names,
         c.joint_parent = c.first_swept > 0 ? c.bones[c.first_swept - 1] : attach;
         arm_chains.push_back(c);
     }
-    std::sort(arm_chains.begin(), arm_chains.end(),
-              [](const Chain& a, const Chain& b) { return a.side > b.side; });
+    std::sort(arm_chains.begin(), arm_chains.end(), [](const Chain& a, const Chain& b) { return a.side > b.side; });
     if (arm_chains.size() == 2 && arm_chains[0].side == arm_chains[1].side)
         out.notes.push_back("both arms lie on the same side of the body");
     for (Chain& c : arm_chains) {

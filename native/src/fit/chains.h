@@ -3,7 +3,7 @@
 // bone lengths), with bone names only as a hint.
 #pragma once
 
-#include "skeleton.h"
+#include "rig/skeleton.h"
 
 #include <string>
 #include <vector>

@@ -68,8 +68,7 @@ Ellipse2 fit_ellipse_fixed_center(const std::vector<dvec2>& points, const std::v
     // residual divided by the gradient's length (Sampson's approximation of the geometric
     // distance), which removes the algebraic fit's bias towards the far points.
     const auto det3 = [](const double m[3][3]) {
-        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
-               m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+        return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
                m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
     };
     double coef[3] = {0, 0, 0};

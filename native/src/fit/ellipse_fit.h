@@ -2,7 +2,7 @@
 // with its center fixed (at the joint, or at the section's centroid for intermediate keys).
 #pragma once
 
-#include "math_types.h"
+#include "math/math_types.h"
 
 #include <vector>
 

@@ -61,33 +61,32 @@ std::string make_report(const FitInput& in, const FitResult& r) {
         j["keys"] = keys;
         chains.push_back(j);
     }
-    const Json report = {
-        {"version", 1},
-        {"mesh",
-         {{"vertices", r.mesh.vertices},
-          {"triangles", r.mesh.triangles},
-          {"components", r.mesh.components},
-          {"boundary_edges", r.mesh.boundary_edges},
-          {"nonmanifold_faces", r.mesh.nonmanifold_faces},
-          {"degenerate_triangles", r.mesh.degenerate_triangles},
-          {"unused_vertices", r.mesh.unused_vertices}}},
-        {"body",
-         {{"up", json_vec(r.chains.frame.up)},
-          {"left", json_vec(r.chains.frame.left)},
-          {"forward", json_vec(r.chains.frame.forward)},
-          {"sides_known", r.chains.frame.sides_known}}},
-        {"chains", chains},
-        {"regions",
-         {{"source", r.weights.source},
-          {"sweep_slots", r.weights.sweep_slots},
-          {"bone_slots", r.weights.bone_slots},
-          {"vertices_bound", r.weights.vertices_bound},
-          {"vertices_on_sweeps", r.weights.vertices_on_sweeps},
-          {"vertices_rigid_only", r.weights.vertices_rigid_only},
-          {"vertices_blended", r.weights.vertices_blended},
-          {"vertices_from_nearest_bone", r.weights.vertices_from_nearest_bone}}},
-        {"notes", r.chains.notes},
-        {"warnings", r.warnings}};
+    const Json report = {{"version", 1},
+                         {"mesh",
+                          {{"vertices", r.mesh.vertices},
+                           {"triangles", r.mesh.triangles},
+                           {"components", r.mesh.components},
+                           {"boundary_edges", r.mesh.boundary_edges},
+                           {"nonmanifold_faces", r.mesh.nonmanifold_faces},
+                           {"degenerate_triangles", r.mesh.degenerate_triangles},
+                           {"unused_vertices", r.mesh.unused_vertices}}},
+                         {"body",
+                          {{"up", json_vec(r.chains.frame.up)},
+                           {"left", json_vec(r.chains.frame.left)},
+                           {"forward", json_vec(r.chains.frame.forward)},
+                           {"sides_known", r.chains.frame.sides_known}}},
+                         {"chains", chains},
+                         {"regions",
+                          {{"source", r.weights.source},
+                           {"sweep_slots", r.weights.sweep_slots},
+                           {"bone_slots", r.weights.bone_slots},
+                           {"vertices_bound", r.weights.vertices_bound},
+                           {"vertices_on_sweeps", r.weights.vertices_on_sweeps},
+                           {"vertices_rigid_only", r.weights.vertices_rigid_only},
+                           {"vertices_blended", r.weights.vertices_blended},
+                           {"vertices_from_nearest_bone", r.weights.vertices_from_nearest_bone}}},
+                         {"notes", r.chains.notes},
+                         {"warnings", r.warnings}};
     return report.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
@@ -125,8 +124,7 @@ std::vector<std::string> names_from_c(int count, const char* const* names) {
     return out;
 }
 
-std::vector<std::vector<int>> chains_from_offsets(int chain_count, const int32_t* offsets,
-                                                  const int32_t* bones) {
+std::vector<std::vector<int>> chains_from_offsets(int chain_count, const int32_t* offsets, const int32_t* bones) {
     std::vector<std::vector<int>> chains;
     if (chain_count == 0) return chains;
     if (chain_count < 0 || chain_count > 1024) throw InvalidInput("chain_count must be in 0..1024");
@@ -134,8 +132,7 @@ std::vector<std::vector<int>> chains_from_offsets(int chain_count, const int32_t
     if (offsets[0] != 0) throw InvalidInput("chain_offsets[0] must be 0");
     for (int c = 0; c < chain_count; ++c) {
         if (!(offsets[c + 1] > offsets[c] && offsets[c + 1] - offsets[c] <= 100000))
-            throw InvalidInput("chain_offsets must increase (chain " + std::to_string(c) +
-                               " is empty or too long)");
+            throw InvalidInput("chain_offsets must increase (chain " + std::to_string(c) + " is empty or too long)");
         chains.emplace_back(bones + offsets[c], bones + offsets[c + 1]);
     }
     return chains;
@@ -146,8 +143,8 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
     const int B = s.bone_count();
     if (B < 1) throw InvalidInput("the skeleton has no bones");
     if (!in.bone_names.empty() && static_cast<int>(in.bone_names.size()) != B)
-        throw InvalidInput("bone names: " + std::to_string(in.bone_names.size()) + " names for " +
-                           std::to_string(B) + " bones");
+        throw InvalidInput("bone names: " + std::to_string(in.bone_names.size()) + " names for " + std::to_string(B) +
+                           " bones");
     if (options.keys.keys_per_link < 0 || options.keys.keys_per_link > 16)
         throw InvalidInput("keys_per_link must be in 0..16");
     const FitMesh mesh(in.vertex_count, in.positions, in.triangle_count, in.triangles);
@@ -189,9 +186,8 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
     if (r.mesh.degenerate_triangles > 0)
         r.warnings.push_back(std::to_string(r.mesh.degenerate_triangles) + " degenerate triangle(s) skipped");
     if (r.mesh.boundary_edges > 0)
-        r.warnings.push_back(
-            std::to_string(r.mesh.boundary_edges) +
-            " border edge(s): the mesh is open (holes, or vertices split at UV seams: weld them)");
+        r.warnings.push_back(std::to_string(r.mesh.boundary_edges) +
+                             " border edge(s): the mesh is open (holes, or vertices split at UV seams: weld them)");
 
     const bool skinned = in.skin_slots > 0;
     std::vector<double> mass;
@@ -242,10 +238,9 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
         throw InvalidInput("no chain could be fitted: " +
                            (r.fits.empty() ? std::string("no chains") : r.fits[0].error));
 
-    r.weights = use_skin
-                    ? weights_from_skin(mesh, s, owners, r.chain_sweep, in.skin_slots, in.skin_bones,
-                                        in.skin_weights, options.regions)
-                    : weights_from_geometry(mesh, r.rig, r.chains, owners, r.chain_sweep, options.regions);
+    r.weights = use_skin ? weights_from_skin(mesh, s, owners, r.chain_sweep, in.skin_slots, in.skin_bones,
+                                             in.skin_weights, options.regions)
+                         : weights_from_geometry(mesh, r.rig, r.chains, owners, r.chain_sweep, options.regions);
     const double bound = static_cast<double>(r.weights.vertices_bound) / in.vertex_count;
     if (bound < 1.0) r.warnings.push_back(fmt(100.0 * (1.0 - bound)) + " % of the vertices got no weight");
     r.report = make_report(in, r);

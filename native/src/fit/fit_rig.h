@@ -4,9 +4,9 @@
 
 #include "fit/chains.h"
 #include "fit/key_fit.h"
-#include "fit/mesh.h"
+#include "geometry/mesh.h"
 #include "fit/regions.h"
-#include "rig.h"
+#include "rig/rig.h"
 
 #include <cstdint>
 #include <string>
@@ -51,8 +51,7 @@ std::vector<std::string> names_from_c(int count, const char* const* names);
 
 /// Chains from the C ABI's compressed rows: chain c is bones[offsets[c] .. offsets[c+1]).
 /// chain_count 0 gives none (automatic chains). @throws InvalidInput on bad offsets.
-std::vector<std::vector<int>> chains_from_offsets(int chain_count, const int32_t* offsets,
-                                                  const int32_t* bones);
+std::vector<std::vector<int>> chains_from_offsets(int chain_count, const int32_t* offsets, const int32_t* bones);
 
 /// Fits a sweep rig to a rigged character.
 /// @throws InvalidInput with a message naming what is wrong and where (bad arrays, a

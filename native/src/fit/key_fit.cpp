@@ -1,8 +1,8 @@
 #include "fit/key_fit.h"
 
-#include "fit/cross_section.h"
+#include "geometry/cross_section.h"
 #include "fit/ellipse_fit.h"
-#include "rig.h"
+#include "rig/rig.h"
 
 #include <tbb/parallel_for.h>
 
@@ -43,12 +43,9 @@ dvec3 unit_or(const dvec3& v, const dvec3& fallback) {
     return len > 0.0 ? v / len : fallback;
 }
 
-double angle_between(const dvec3& a, const dvec3& b) {
-    return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0));
-}
+double angle_between(const dvec3& a, const dvec3& b) { return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)); }
 
-std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Chain& ch,
-                               const KeyOptions& opt) {
+std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Chain& ch, const KeyOptions& opt) {
     const std::vector<int> links(ch.bones.begin() + ch.first_swept, ch.bones.end());
     const int m = static_cast<int>(links.size());
     std::vector<dvec3> joint(m + 1);
@@ -110,8 +107,7 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
         for (int k = 1; k <= opt.keys_per_link; ++k) {
             KeySpec in;
             in.role = "intermediate";
-            in.point =
-                joint[i] + (static_cast<double>(k) / (opt.keys_per_link + 1)) * (joint[i + 1] - joint[i]);
+            in.point = joint[i] + (static_cast<double>(k) / (opt.keys_per_link + 1)) * (joint[i + 1] - joint[i]);
             in.normal = dir[i];
             in.bone = links[i];
             in.fixed_center = false;
@@ -168,9 +164,8 @@ std::vector<dvec2> densify(const std::vector<dvec2>& p, double max_edge) {
 /// Which part of a cut counts as the chain's own.
 struct Ownership {
     int chain = -1;
-    int also = -1;  ///< another chain whose part counts too (the neck, for the torso's end), or -1
-    double clip_radius =
-        0.0;  ///< > 0: points farther from the bone are not the chain's (the foot at the ankle)
+    int also = -1;             ///< another chain whose part counts too (the neck, for the torso's end), or -1
+    double clip_radius = 0.0;  ///< > 0: points farther from the bone are not the chain's (the foot at the ankle)
 };
 
 /// Cuts the mesh at a spec, picks the chain's loop, keeps the chain's own part of it and
@@ -189,8 +184,7 @@ Fitted fit_section(const FitMesh& mesh, const KeySpec& spec, const Ownership& ow
         rep->notes.push_back(loops.empty() ? "the cut misses the mesh" : "no section loop around the bone");
         return out;
     }
-    if (!pick.contains)
-        rep->notes.push_back("the bone lies outside its section (by " + fmt(pick.distance) + ")");
+    if (!pick.contains) rep->notes.push_back("the bone lies outside its section (by " + fmt(pick.distance) + ")");
     const SectionLoop& loop = loops[pick.loop];
     const std::vector<dvec2>& poly = polygons[pick.loop];
     const size_t n = poly.size();
@@ -209,9 +203,7 @@ Fitted fit_section(const FitMesh& mesh, const KeySpec& spec, const Ownership& ow
     std::vector<double> edges;
     for (size_t i = 0; i < n; ++i) {
         const SectionPoint& p = loop.points[i];
-        const auto share_of = [&](int c) {
-            return (1.0 - p.t) * shares.at(p.v0, c) + p.t * shares.at(p.v1, c);
-        };
+        const auto share_of = [&](int c) { return (1.0 - p.t) * shares.at(p.v0, c) + p.t * shares.at(p.v1, c); };
         double share = share_of(own.chain);
         if (own.also >= 0) share += share_of(own.also);
         const bool near = own.clip_radius <= 0.0 || glm::length(poly[i]) <= own.clip_radius;
@@ -242,10 +234,9 @@ Fitted fit_section(const FitMesh& mesh, const KeySpec& spec, const Ownership& ow
     // there (Sect. 3.2) when the joint is near the section's center. A joint far off it (the
     // spine near the back) would get a distorted, oversized ellipse that reaches out behind
     // the body, and a sweep zigzagging between the back and the middle: such a key is
-    // centered at the centroid too, and turns about its joint in a pose (key_motion.h).
+    // centered at the centroid too, and turns about its joint in a pose (rig/key_motion.h).
     dvec2 center = spec.fixed_center ? dvec2(0.0) : centroid;
-    if (spec.fixed_center &&
-        (!polygon_contains(section, dvec2(0.0)) || glm::length(centroid) > 0.15 * r_eq)) {
+    if (spec.fixed_center && (!polygon_contains(section, dvec2(0.0)) || glm::length(centroid) > 0.15 * r_eq)) {
         center = centroid;
         rep->notes.push_back("the joint lies " + fmt(glm::length(centroid) / std::max(r_eq, 1e-300)) +
                              " radii off the section's center: the key is centered at the centroid");
@@ -267,9 +258,7 @@ Fitted fit_section(const FitMesh& mesh, const KeySpec& spec, const Ownership& ow
     return out;
 }
 
-dvec3 project_to_plane(const dvec3& v, const dvec3& n) {
-    return v - glm::dot(v, n) * n;
-}
+dvec3 project_to_plane(const dvec3& v, const dvec3& n) { return v - glm::dot(v, n) * n; }
 
 /// Builds the sweep's keys; smooths the half-axes while their quadratic interpolation
 /// overshoots below zero. Returns "" or the reason the keys make no sweep.
@@ -333,8 +322,8 @@ ChainFit fit_chain(const FitMesh& mesh, const Skeleton& s, const ChainSet& set, 
             const Fitted f = fit_section(mesh, specs[K - 1], o, shares, opt, &r);
             if (f.ok) {
                 r.notes.push_back("the section runs into the " +
-                                  std::string(ch.kind == ChainKind::Leg ? "foot" : "end part") +
-                                  ": kept within " + fmt(o.clip_radius) + " of the joint");
+                                  std::string(ch.kind == ChainKind::Leg ? "foot" : "end part") + ": kept within " +
+                                  fmt(o.clip_radius) + " of the joint");
                 fits[K - 1] = f;
                 out.reports[K - 1] = r;
             }

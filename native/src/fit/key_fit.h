@@ -4,10 +4,10 @@
 #pragma once
 
 #include "fit/chains.h"
-#include "fit/mesh.h"
+#include "geometry/mesh.h"
 #include "fit/regions.h"
-#include "key_ellipse.h"
-#include "skeleton.h"
+#include "rig/key_ellipse.h"
+#include "rig/skeleton.h"
 
 #include <string>
 #include <vector>

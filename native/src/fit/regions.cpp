@@ -1,7 +1,7 @@
 #include "fit/regions.h"
 
-#include "bind.h"
-#include "skeleton.h"
+#include "bind/bind.h"
+#include "rig/skeleton.h"
 
 #include <tbb/parallel_for.h>
 
@@ -22,8 +22,7 @@ double segment_distance(const dvec3& p, const dvec3& a, const dvec3& b) {
 }
 
 /// Nearest bone segment of every vertex (optionally only among bones with allowed[b]).
-std::vector<int> nearest_bones(const FitMesh& mesh, const Skeleton& s,
-                               const std::vector<char>* allowed = nullptr) {
+std::vector<int> nearest_bones(const FitMesh& mesh, const Skeleton& s, const std::vector<char>* allowed = nullptr) {
     const int V = mesh.vertex_count(), B = s.bone_count();
     std::vector<int> out(V, -1);
     tbb::parallel_for(0, V, [&](int v) {
@@ -47,8 +46,7 @@ double smoothstep01(double x) {
 
 /// Writes one vertex's sweep weights: entries below 1 % of the sweep part dropped, the
 /// `slots` largest kept, their sum restored to `total`.
-void write_sweeps(std::vector<std::pair<float, int>>& entries, float total, int slots, int32_t* ids,
-                  float* w) {
+void write_sweeps(std::vector<std::pair<float, int>>& entries, float total, int slots, int32_t* ids, float* w) {
     std::sort(entries.begin(), entries.end(), [](auto& a, auto& b) { return a.first > b.first; });
     float sum = 0.0f;
     int n = 0;
@@ -107,8 +105,7 @@ std::vector<int> sweep_labels(const FitMesh& mesh, const Rig& rig, const BoneOwn
             const Sweep& sweep = rig.sweeps[si];
             const SweepInfluence inf = bind_to_sweep(sweep, si, planes[si], p);
             const dvec2 ab = sweep.rest_half_axes.at(inf.span, inf.u);
-            double rho2 =
-                (inf.local[0] / ab.x) * (inf.local[0] / ab.x) + (inf.local[1] / ab.y) * (inf.local[1] / ab.y);
+            double rho2 = (inf.local[0] / ab.x) * (inf.local[0] / ab.x) + (inf.local[1] / ab.y) * (inf.local[1] / ab.y);
             // Beyond an end of the sweep the out-of-plane offset counts as distance too.
             const bool before = inf.span == 0 && inf.u <= 0.0f && inf.local[2] < 0.0f;
             const bool after = inf.span == sweep.span_count() - 1 && inf.u >= 1.0f && inf.local[2] > 0.0f;
@@ -127,8 +124,8 @@ std::vector<int> sweep_labels(const FitMesh& mesh, const Rig& rig, const BoneOwn
 
 }  // namespace
 
-PartShares shares_from_skin(int V, int slots, const int32_t* bones, const float* weights,
-                            const BoneOwners& owners, int C) {
+PartShares shares_from_skin(int V, int slots, const int32_t* bones, const float* weights, const BoneOwners& owners,
+                            int C) {
     PartShares p;
     p.chains = C;
     p.share.assign(static_cast<size_t>(V) * C, 0.0f);
@@ -136,8 +133,7 @@ PartShares shares_from_skin(int V, int slots, const int32_t* bones, const float*
     for (int v = 0; v < V; ++v) {
         double total = 0.0;
         for (int i = 0; i < slots; ++i)
-            if (bones[static_cast<size_t>(v) * slots + i] >= 0 &&
-                bones[static_cast<size_t>(v) * slots + i] < B)
+            if (bones[static_cast<size_t>(v) * slots + i] >= 0 && bones[static_cast<size_t>(v) * slots + i] < B)
                 total += weights[static_cast<size_t>(v) * slots + i];
         if (!(total > 0.0)) continue;
         for (int i = 0; i < slots; ++i) {
@@ -152,8 +148,7 @@ PartShares shares_from_skin(int V, int slots, const int32_t* bones, const float*
     return p;
 }
 
-PartShares shares_from_nearest_bones(const FitMesh& mesh, const Skeleton& s, const BoneOwners& owners,
-                                     int C) {
+PartShares shares_from_nearest_bones(const FitMesh& mesh, const Skeleton& s, const BoneOwners& owners, int C) {
     PartShares p;
     p.chains = C;
     const int V = mesh.vertex_count();
@@ -178,8 +173,7 @@ PartShares shares_from_sweeps(const FitMesh& mesh, const Rig& rig, const BoneOwn
     const std::vector<int> label = sweep_labels(mesh, rig, owners, chain_sweep, nearest);
     for (int v = 0; v < V; ++v) {
         const int b = nearest[v];
-        const int c =
-            label[v] >= 0 ? label[v] : (owners.chain[b] >= 0 ? owners.chain[b] : owners.attached[b]);
+        const int c = label[v] >= 0 ? label[v] : (owners.chain[b] >= 0 ? owners.chain[b] : owners.attached[b]);
         if (c >= 0) p.share[static_cast<size_t>(v) * C + c] = 1.0f;
     }
     smooth_rows(mesh, C, p.share, std::vector<char>(V, 1), 3, 0.5f);
@@ -229,8 +223,7 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
     for (int v = 0; v < V; ++v) {
         double total = 0.0;
         for (int i = 0; i < slots; ++i)
-            if (bones[static_cast<size_t>(v) * slots + i] >= 0)
-                total += weights[static_cast<size_t>(v) * slots + i];
+            if (bones[static_cast<size_t>(v) * slots + i] >= 0) total += weights[static_cast<size_t>(v) * slots + i];
         unweighted[v] = !(total > 0.0);
         r.vertices_from_nearest_bone += unweighted[v];
     }
@@ -263,8 +256,7 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
         } else {
             for (int i = 0; i < slots; ++i)
                 if (bones[static_cast<size_t>(v) * slots + i] >= 0)
-                    add(bones[static_cast<size_t>(v) * slots + i],
-                        weights[static_cast<size_t>(v) * slots + i]);
+                    add(bones[static_cast<size_t>(v) * slots + i], weights[static_cast<size_t>(v) * slots + i]);
         }
         float chains_sum = 0.0f;
         for (int c = 0; c < C; ++c) chains_sum += row[c];
@@ -280,8 +272,7 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
             for (int c = 0; c < C; ++c)
                 if (split[static_cast<size_t>(v) * C + c] > 0.0f)
                     entries.push_back({split[static_cast<size_t>(v) * C + c], chain_sweep[c]});
-        write_sweeps(entries, sweep_total[v], r.sweep_slots,
-                     &r.sweep_ids[static_cast<size_t>(v) * r.sweep_slots],
+        write_sweeps(entries, sweep_total[v], r.sweep_slots, &r.sweep_ids[static_cast<size_t>(v) * r.sweep_slots],
                      &r.sweep_weights[static_cast<size_t>(v) * r.sweep_slots]);
         // Rigid parts keep the skin's own weights, relative to the vertex's total.
         std::vector<std::pair<float, int>> rigid;
@@ -295,8 +286,7 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
             for (int i = 0; i < slots; ++i) {
                 const int b = bones[static_cast<size_t>(v) * slots + i];
                 if (b >= 0 && chain_of(b) < 0 && weights[static_cast<size_t>(v) * slots + i] > 0.0f)
-                    rigid.push_back(
-                        {static_cast<float>(weights[static_cast<size_t>(v) * slots + i] / total), b});
+                    rigid.push_back({static_cast<float>(weights[static_cast<size_t>(v) * slots + i] / total), b});
             }
         }
         std::sort(rigid.begin(), rigid.end(), [](auto& a, auto& b) { return a.first > b.first; });
@@ -309,9 +299,8 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
     return r;
 }
 
-RegionWeights weights_from_geometry(const FitMesh& mesh, const Rig& rig, const ChainSet& set,
-                                    const BoneOwners& owners, const std::vector<int>& chain_sweep,
-                                    const RegionOptions& opt) {
+RegionWeights weights_from_geometry(const FitMesh& mesh, const Rig& rig, const ChainSet& set, const BoneOwners& owners,
+                                    const std::vector<int>& chain_sweep, const RegionOptions& opt) {
     const Skeleton& s = rig.skeleton;
     const int V = mesh.vertex_count(), C = static_cast<int>(chain_sweep.size()), B = s.bone_count();
     const int W = C + 1;  // one column per chain, the last for rigid parts
@@ -372,8 +361,7 @@ RegionWeights weights_from_geometry(const FitMesh& mesh, const Rig& rig, const C
     // the nearest rigid bone.
     std::vector<int> nearest_rigid;
     bool need = false;
-    for (int v = 0; v < V && !need; ++v)
-        need = rigid_of[v] < 0 && part[static_cast<size_t>(v) * W + C] > 0.0f;
+    for (int v = 0; v < V && !need; ++v) need = rigid_of[v] < 0 && part[static_cast<size_t>(v) * W + C] > 0.0f;
     if (need && std::find(rigid_bone.begin(), rigid_bone.end(), 1) != rigid_bone.end())
         nearest_rigid = nearest_bones(mesh, s, &rigid_bone);
     tbb::parallel_for(0, V, [&](int v) {

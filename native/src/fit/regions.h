@@ -4,8 +4,8 @@
 #pragma once
 
 #include "fit/chains.h"
-#include "fit/mesh.h"
-#include "rig.h"
+#include "geometry/mesh.h"
+#include "rig/rig.h"
 
 #include <cstdint>
 #include <string>

@@ -32,21 +32,21 @@ enum class BvhChannel : uint8_t { Xposition, Yposition, Zposition, Xrotation, Yr
 
 struct BvhJoint {
   std::string name;
-  int32_t parent = -1;                 ///< index into BvhClip::joints, -1 for a root
-  std::array<double, 3> offset{};      ///< rest position relative to the parent (file units)
-  std::vector<BvhChannel> channels;    ///< in file order
-  int32_t first_channel = 0;           ///< column of channels[0] in a motion row
-  std::vector<int32_t> children;       ///< joint indices
+  int32_t parent = -1;                           ///< index into BvhClip::joints, -1 for a root
+  std::array<double, 3> offset{};                ///< rest position relative to the parent (file units)
+  std::vector<BvhChannel> channels;              ///< in file order
+  int32_t first_channel = 0;                     ///< column of channels[0] in a motion row
+  std::vector<int32_t> children;                 ///< joint indices
   std::vector<std::array<double, 3>> end_sites;  ///< End Site offsets (usually 0 or 1)
 };
 
 struct BvhClip {
-  std::string source;                  ///< file name (for messages)
-  std::vector<BvhJoint> joints;        ///< file order: a parent comes before its children
+  std::string source;            ///< file name (for messages)
+  std::vector<BvhJoint> joints;  ///< file order: a parent comes before its children
   int32_t frame_count = 0;
-  double frame_time_s = 0.0;           ///< seconds per frame (> 0)
-  int32_t channel_count = 0;           ///< values per frame
-  std::vector<float> motion;           ///< #frame_count * channel_count
+  double frame_time_s = 0.0;  ///< seconds per frame (> 0)
+  int32_t channel_count = 0;  ///< values per frame
+  std::vector<float> motion;  ///< #frame_count * channel_count
 
   int32_t joint_count() const { return static_cast<int32_t>(joints.size()); }
   /// Index of the joint named `name` (exact match), or -1.
@@ -70,12 +70,12 @@ std::vector<float> bvh_global_matrices(const BvhClip& clip, int32_t frame);
 
 /// Which BVH joint drives which bone of a character.
 struct BvhBoneMap {
-  std::vector<int32_t> source;         ///< #B: the BVH joint driving bone b, or -1 (b keeps its
-                                       ///< rest pose relative to its parent)
-  int32_t root_bone = -1;              ///< the hips bone: it takes the root translation
-  int32_t root_joint = -1;             ///< the BVH hips joint
-  std::string source_convention;       ///< "cgspeed MotionBuilder", "Daz/Second Life", "Mixamo", "BVH names", "custom"
-  std::string target_convention;       ///< "MakeHuman game_engine", "Mixamo", "CesiumMan", ...
+  std::vector<int32_t> source;    ///< #B: the BVH joint driving bone b, or -1 (b keeps its
+                                  ///< rest pose relative to its parent)
+  int32_t root_bone = -1;         ///< the hips bone: it takes the root translation
+  int32_t root_joint = -1;        ///< the BVH hips joint
+  std::string source_convention;  ///< "cgspeed MotionBuilder", "Daz/Second Life", "Mixamo", "BVH names", "custom"
+  std::string target_convention;  ///< "MakeHuman game_engine", "Mixamo", "CesiumMan", ...
   int32_t mapped_count() const;
 };
 
@@ -111,7 +111,7 @@ struct BvhRetargetOptions {
 
 /// Poses a character from a BVH clip: the retarget of ../shared/data/README.md Sect. 2.3,
 /// which reproduces the *_anims.glb files' bone matrices to 0.02 degrees and 0.05 mm (see
-/// tests/native/cli_test.cpp), with one deliberate difference (root_rest_from_offset).
+/// tests/native/cli/cli_test.cpp), with one deliberate difference (root_rest_from_offset).
 ///  * Every mapped bone b driven by joint j gets j's world rotation change relative to the
 ///    BVH rest pose, applied after a per-bone swing S_b that turns b's rest direction (head
 ///    to tail; the character's A-pose) onto the direction of the bone Blender's BVH importer
@@ -128,8 +128,7 @@ class BvhRetarget {
  public:
   /// Keeps references to `clip` and `character`: both must outlive the retarget.
   /// Throws std::invalid_argument when `map` is not for this clip and character.
-  BvhRetarget(const BvhClip& clip, const Character& character, BvhBoneMap map,
-              const BvhRetargetOptions& options = {});
+  BvhRetarget(const BvhClip& clip, const Character& character, BvhBoneMap map, const BvhRetargetOptions& options = {});
 
   /// #B*16 column-major posed bone matrices (armature space; the same space and bone frames
   /// as Character::bone_rest and sample_pose) at BVH frame `frame` (-1 = the BVH rest pose,
@@ -146,7 +145,7 @@ class BvhRetarget {
   BvhBoneMap map_;
   bool z_up_ = true;
   double scale_ = 1.0;
-  std::array<double, 3> root_rest_{};        ///< BVH space
+  std::array<double, 3> root_rest_{};         ///< BVH space
   std::vector<std::array<double, 4>> swing_;  ///< #B quaternions (w, x, y, z), character space
 };
 

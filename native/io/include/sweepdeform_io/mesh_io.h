@@ -11,8 +11,8 @@ namespace sd::io {
 
 /// Positions and triangles as read; no triangles for a point cloud.
 struct MeshData {
-  std::vector<float> positions;   ///< #V*3, file axes and units
-  std::vector<int32_t> triangles; ///< #T*3; polygons are split into fans
+  std::vector<float> positions;    ///< #V*3, file axes and units
+  std::vector<int32_t> triangles;  ///< #T*3; polygons are split into fans
 };
 
 /// Reads .obj, .ply, .off (OpenMesh: vertex order kept, faces with more than 3 corners split

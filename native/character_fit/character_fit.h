@@ -1,0 +1,46 @@
+// The automatic fitting's input from a character loaded by sweepdeform_io (its own skin
+// weights, 4 per vertex), and fit + bind as the add-on does it; for the native tests and the
+// benchmarks (target sweepdeform_character_fit: the core and sweepdeform_io, header-only).
+#pragma once
+
+#include "bind/bind.h"
+#include "fit/fit_rig.h"
+
+#include <sweepdeform_io/character.h>
+
+namespace sd::character_fit {
+
+inline Skeleton skeleton_of(const io::Character& c) {
+    return Skeleton::from_arrays(static_cast<int>(c.bone_names.size()), c.bone_parents.data(), c.bone_rest.data(),
+                                 c.bone_heads.data(), c.bone_tails.data());
+}
+
+inline fit::FitInput character_input(const io::Character& c, const Skeleton& s) {
+    fit::FitInput in;
+    in.vertex_count = static_cast<int>(c.positions.size() / 3);
+    in.positions = c.positions.data();
+    in.triangle_count = static_cast<int>(c.triangles.size() / 3);
+    in.triangles = c.triangles.data();
+    in.skeleton = s;
+    in.bone_names = c.bone_names;
+    in.skin_slots = 4;
+    in.skin_bones = c.skin_joints.data();
+    in.skin_weights = c.skin_weights.data();
+    return in;
+}
+
+inline fit::FitInput fit_input(const io::Character& c) { return character_input(c, skeleton_of(c)); }
+
+/// Binds `vertex_count` positions (x, y, z each) with the fitted rig and region weights.
+inline Binding bind_fitted(const fit::FitResult& f, int vertex_count, const float* positions) {
+    const fit::RegionWeights& w = f.weights;
+    return bind_vertices(f.rig, vertex_count, positions, w.sweep_slots, w.sweep_ids.data(), w.sweep_weights.data(),
+                         w.bone_slots, w.bone_ids.data(), w.bone_weights.data());
+}
+
+/// Binds the character with the fitted rig and region weights.
+inline Binding bind_fitted(const io::Character& c, const fit::FitResult& f) {
+    return bind_fitted(f, static_cast<int>(c.positions.size() / 3), c.positions.data());
+}
+
+}  // namespace sd::character_fit

@@ -1,0 +1,96 @@
+// The C ABI of deformers (sweepdeform.h, "deformation"): the per-frame call and the volume
+// control's settings and figures. No exception leaves this file.
+#include "sweepdeform/sweepdeform.h"
+
+#include "abi/guard.h"
+#include "bind/serialize.h"
+#include "deform/deform.h"
+
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace {
+
+using sd::abi::fail;
+using sd::abi::guarded;
+
+}  // namespace
+
+extern "C" {
+
+sd_status sd_deformer_create(const sd_rig* rig, const sd_binding* binding, sd_deformer** out) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rig && binding && out, "rig, binding or out_deformer is NULL");
+        if (binding->binding.rig_fingerprint != sd::rig_fingerprint(rig->rig))
+            return fail(SD_ERR_MISMATCH, "the binding was made for another rig; re-bind");
+        auto d = std::make_unique<sd_deformer>();
+        d->deformer = std::make_unique<sd::Deformer>(rig->rig, binding->binding);
+        *out = d.release();
+        return SD_OK;
+    });
+}
+
+void sd_deformer_destroy(sd_deformer* deformer) { delete deformer; }
+
+sd_status sd_deformer_set_volume_preservation(sd_deformer* d, int32_t enabled, float strength) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d, "deformer is NULL");
+        d->deformer->set_volume_preservation(enabled != 0, strength);
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_set_volume_offsets(sd_deformer* d, int32_t sweep_count, const float* offsets) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && offsets, "deformer or offsets is NULL");
+        if (sweep_count != static_cast<int32_t>(d->deformer->rig().sweeps.size()))
+            return fail(SD_ERR_MISMATCH, "sweep_count differs from the rig's");
+        d->deformer->set_volume_offsets(std::vector<double>(offsets, offsets + sweep_count));
+        return SD_OK;
+    });
+}
+
+sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count, float* out_positions) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
+        if (bone_count != d->deformer->rig().skeleton.bone_count())
+            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
+                                             std::to_string(d->deformer->rig().skeleton.bone_count()));
+        if (vertex_count != d->deformer->vertex_count())
+            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
+                                             " differs from the binding's " +
+                                             std::to_string(d->deformer->vertex_count()));
+        d->deformer->deform(pose, out_positions);
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, double* rest, double* before,
+                                  double* after) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d, "deformer is NULL");
+        const sd::Deformer& def = *d->deformer;
+        if (sweep_count != static_cast<int32_t>(def.rig().sweeps.size()))
+            return fail(SD_ERR_MISMATCH, "sweep_count differs from the rig's");
+        for (int s = 0; s < sweep_count; ++s) {
+            if (rest) rest[s] = def.rig().sweeps[s].corrected_rest_volume;
+            if (before) before[s] = def.volume_before[s];
+            if (after) after[s] = def.volume_after[s];
+        }
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_get_volume_iterations(const sd_deformer* d, int32_t sweep_count, int32_t* iterations) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && iterations, "deformer or iterations is NULL");
+        if (sweep_count != static_cast<int32_t>(d->deformer->rig().sweeps.size()))
+            return fail(SD_ERR_MISMATCH, "sweep_count differs from the rig's");
+        for (int s = 0; s < sweep_count; ++s) iterations[s] = d->deformer->volume_iterations[s];
+        return SD_OK;
+    });
+}
+
+}  // extern "C"

@@ -1,0 +1,102 @@
+// Shared by the C ABI's translation units: the opaque handles, status mapping, the thread-local
+// message, the exception barrier, and the helpers several ABI areas use (bytes into the
+// caller's buffer, a sweep by index). Internal; not installed.
+#pragma once
+
+#include "sweepdeform/sweepdeform.h"
+
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "math/math_types.h"
+#include "rig/rig.h"
+
+#include <algorithm>
+#include <cstdint>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+// The opaque handles of the header.
+struct sd_rig {
+    sd::Rig rig;
+};
+struct sd_binding {
+    sd::Binding binding;
+};
+struct sd_deformer {
+    std::unique_ptr<sd::Deformer> deformer;
+};
+
+namespace sd::abi {
+
+/// The thread-local message behind sd_last_error().
+inline std::string& last_error() {
+    thread_local std::string message;
+    return message;
+}
+
+inline sd_status fail(sd_status status, std::string message) {
+    last_error() = std::move(message);
+    return status;
+}
+
+/// Runs f (returning sd_status), mapping every exception to a status and a message, so
+/// that no exception crosses the ABI. InvalidInput maps to `invalid_input` (blob loaders
+/// report it as corrupt data).
+template <class F>
+sd_status guarded(const char* function, F&& f, sd_status invalid_input = SD_ERR_INVALID_ARGUMENT) {
+    try {
+        last_error().clear();
+        return f();
+    } catch (const sd::InvalidInput& e) {
+        return fail(invalid_input, std::string(function) + ": " + e.what());
+    } catch (const sd::CorruptData& e) {
+        return fail(SD_ERR_CORRUPT_DATA, std::string(function) + ": " + e.what());
+    } catch (const std::bad_alloc&) {
+        return fail(SD_ERR_OUT_OF_MEMORY, std::string(function) + ": out of memory");
+    } catch (const std::exception& e) {
+        return fail(SD_ERR_INTERNAL, std::string(function) + ": internal error: " + e.what());
+    } catch (...) {
+        return fail(SD_ERR_INTERNAL, std::string(function) + ": unknown internal error");
+    }
+}
+
+}  // namespace sd::abi
+
+#define SD_REQUIRE(cond, message)                     \
+    do {                                              \
+        if (!(cond)) throw sd::InvalidInput(message); \
+    } while (0)
+
+namespace sd::abi {
+
+/// Size query, then fill: *out_size = size (bytes); copies data into buffer unless buffer is
+/// NULL; a buffer smaller than size is an error naming `what`. Inside guarded().
+template <class Byte>
+sd_status write_bytes(const Byte* data, size_t size, Byte* buffer, int64_t capacity, int64_t* out_size,
+                      const char* what) {
+    SD_REQUIRE(out_size, "out_size is NULL");
+    *out_size = static_cast<int64_t>(size);
+    if (!buffer) return SD_OK;
+    if (capacity < static_cast<int64_t>(size))
+        return fail(SD_ERR_INVALID_ARGUMENT, "buffer capacity " + std::to_string(capacity) + " is smaller than " +
+                                                 what + " (" + std::to_string(size) + " bytes)");
+    std::copy(data, data + size, buffer);
+    return SD_OK;
+}
+
+/// write_bytes for a rig or binding blob.
+inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, int64_t capacity, int64_t* out_size) {
+    return write_bytes(blob.data(), blob.size(), buffer, capacity, out_size, "the blob");
+}
+
+/// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
+inline const sd::Sweep& sweep_of(const sd_rig* rig, int32_t sweep) {
+    SD_REQUIRE(rig, "rig is NULL");
+    SD_REQUIRE(sweep >= 0 && sweep < static_cast<int32_t>(rig->rig.sweeps.size()),
+               "sweep index " + std::to_string(sweep) + " is out of range");
+    return rig->rig.sweeps[sweep];
+}
+
+}  // namespace sd::abi

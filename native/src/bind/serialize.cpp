@@ -1,0 +1,278 @@
+#include "bind/serialize.h"
+
+#include <glm/gtc/type_ptr.hpp>
+
+#include <array>
+#include <cstring>
+
+namespace sd {
+
+uint32_t crc32(const uint8_t* data, size_t size) {
+    static const std::array<uint32_t, 256> table = [] {
+        std::array<uint32_t, 256> t{};
+        for (uint32_t i = 0; i < 256; ++i) {
+            uint32_t c = i;
+            for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+            t[i] = c;
+        }
+        return t;
+    }();
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < size; ++i) c = table[(c ^ data[i]) & 0xFF] ^ (c >> 8);
+    return c ^ 0xFFFFFFFFu;
+}
+
+namespace {
+
+class Writer {
+public:
+    template <class T>
+    void put(const T& v) {
+        static_assert(std::is_trivially_copyable<T>::value, "plain data only");
+        const auto* p = reinterpret_cast<const uint8_t*>(&v);
+        bytes.insert(bytes.end(), p, p + sizeof(T));
+    }
+    /// GLM vectors, quaternions and matrices, as their doubles.
+    template <class G>
+    void put_glm(const G& g) {
+        const double* p = glm::value_ptr(g);
+        for (size_t i = 0; i < sizeof(G) / sizeof(double); ++i) put<double>(p[i]);
+    }
+    template <class T>
+    void put_array(const std::vector<T>& v) {
+        put<uint64_t>(v.size());
+        const auto* p = reinterpret_cast<const uint8_t*>(v.data());
+        bytes.insert(bytes.end(), p, p + v.size() * sizeof(T));
+    }
+    std::vector<uint8_t> bytes;
+};
+
+class Reader {
+public:
+    Reader(const uint8_t* data, size_t size) : p_(data), left_(size) {}
+    template <class T>
+    T get() {
+        T v;
+        take(&v, sizeof(T));
+        return v;
+    }
+    template <class G>
+    G get_glm() {
+        G g;
+        double* p = glm::value_ptr(g);
+        for (size_t i = 0; i < sizeof(G) / sizeof(double); ++i) p[i] = get<double>();
+        return g;
+    }
+    template <class T>
+    std::vector<T> get_array(size_t max_count) {
+        const uint64_t n = get<uint64_t>();
+        if (n > max_count || n * sizeof(T) > left_) throw CorruptData("blob array length is out of range");
+        std::vector<T> v(n);
+        take(v.data(), n * sizeof(T));
+        return v;
+    }
+    size_t left() const { return left_; }
+
+private:
+    void take(void* out, size_t n) {
+        if (n > left_) throw CorruptData("blob is truncated");
+        if (n == 0) return;  // an empty array: out may be NULL
+        std::memcpy(out, p_, n);
+        p_ += n;
+        left_ -= n;
+    }
+    const uint8_t* p_;
+    size_t left_;
+};
+
+std::vector<uint8_t> frame(const char magic[4], uint32_t version, const std::vector<uint8_t>& payload) {
+    Writer w;
+    w.bytes.assign(magic, magic + 4);
+    w.put<uint32_t>(version);
+    w.put<uint64_t>(payload.size());
+    w.bytes.insert(w.bytes.end(), payload.begin(), payload.end());
+    w.put<uint32_t>(crc32(payload.data(), payload.size()));
+    return w.bytes;
+}
+
+/// Checks the frame and returns a reader over the payload; versions [min_version, version]
+/// are accepted (out_version, if given, receives the blob's).
+Reader unframe(const uint8_t* data, size_t size, const char magic[4], uint32_t version, const char* what,
+               uint32_t min_version = 0, uint32_t* out_version = nullptr) {
+    if (!data) throw CorruptData(std::string(what) + " blob is NULL");
+    const size_t header = 4 + 4 + 8;
+    if (size < header + 4) throw CorruptData(std::string(what) + " blob is truncated");
+    if (std::memcmp(data, magic, 4) != 0) throw CorruptData(std::string("not a ") + what + " blob (bad magic)");
+    Reader r(data + 4, size - 4);
+    const uint32_t v = r.get<uint32_t>();
+    if (min_version == 0) min_version = version;
+    if (v < min_version || v > version)
+        throw CorruptData(
+            std::string(what) + " blob has format version " + std::to_string(v) + ", this library reads version" +
+            (min_version == version ? " " + std::to_string(version)
+                                    : "s " + std::to_string(min_version) + " to " + std::to_string(version)));
+    if (out_version) *out_version = v;
+    const uint64_t n = r.get<uint64_t>();
+    if (n != size - header - 4) throw CorruptData(std::string(what) + " blob is truncated or has trailing bytes");
+    uint32_t stored;
+    std::memcpy(&stored, data + header + n, 4);
+    if (stored != crc32(data + header, n))
+        throw CorruptData(std::string(what) + " blob checksum mismatch (corrupt data)");
+    return Reader(data + header, n);
+}
+
+/// The version 1 payload: skeleton and key ellipses. The fingerprint hashes only this part,
+/// so editing corrections keeps a binding valid.
+std::vector<uint8_t> rig_payload(const Rig& rig) {
+    Writer w;
+    const Skeleton& s = rig.skeleton;
+    w.put<int32_t>(s.bone_count());
+    for (int b = 0; b < s.bone_count(); ++b) {
+        w.put<int32_t>(s.parents[b]);
+        w.put_glm(s.rest[b]);
+        w.put_glm(s.heads[b]);
+        w.put_glm(s.tails[b]);
+    }
+    w.put<int32_t>(static_cast<int32_t>(rig.sweeps.size()));
+    for (const Sweep& sw : rig.sweeps) {
+        w.put<int32_t>(sw.key_count());
+        for (const KeyEllipse& k : sw.keys) {
+            w.put_glm(k.center);
+            w.put_glm(k.orientation);
+            w.put(k.a);
+            w.put(k.b);
+            w.put<int32_t>(k.bone);
+            w.put<int32_t>(k.joint_parent);
+            w.put(k.swing_fraction);
+            w.put(k.twist_fraction);
+        }
+    }
+    return w.bytes;
+}
+
+/// Version 2 appends, per sweep and key: int32 count, then per correction the angle, the
+/// center offset (3), the rotation vector (3), scale_a, scale_b (doubles) and int32 muted.
+void put_corrections(Writer& w, const Rig& rig) {
+    for (const Sweep& sw : rig.sweeps)
+        for (const KeyEllipse& k : sw.keys) {
+            w.put<int32_t>(static_cast<int32_t>(k.corrections.size()));
+            for (const KeyCorrection& c : k.corrections) {
+                w.put(c.angle);
+                w.put_glm(c.delta_center);
+                w.put_glm(c.delta_rotation);
+                w.put(c.scale_a);
+                w.put(c.scale_b);
+                w.put<int32_t>(c.muted ? 1 : 0);
+            }
+        }
+}
+
+void get_corrections(Reader& r, Rig& rig) {
+    std::vector<CorrectionRecord> records;
+    for (size_t s = 0; s < rig.sweeps.size(); ++s)
+        for (int k = 0; k < rig.sweeps[s].key_count(); ++k) {
+            const int32_t n = r.get<int32_t>();
+            if (n < 0 || n > kMaxCorrectionsPerKey) throw CorruptData("rig blob has an invalid correction count");
+            for (int i = 0; i < n; ++i) {
+                CorrectionRecord rec;
+                rec.sweep = static_cast<int>(s);
+                rec.key = k;
+                KeyCorrection& c = rec.correction;
+                c.angle = r.get<double>();
+                c.delta_center = r.get_glm<dvec3>();
+                c.delta_rotation = r.get_glm<dvec3>();
+                c.scale_a = r.get<double>();
+                c.scale_b = r.get<double>();
+                const int32_t muted = r.get<int32_t>();
+                if (muted != 0 && muted != 1) throw CorruptData("rig blob has an invalid muted flag");
+                c.muted = muted != 0;
+                records.push_back(rec);
+            }
+        }
+    rig.set_corrections(records);
+}
+
+constexpr char kRigMagic[4] = {'S', 'D', 'R', 'G'};
+constexpr char kBindingMagic[4] = {'S', 'D', 'B', 'N'};
+
+}  // namespace
+
+std::vector<uint8_t> serialize_rig(const Rig& rig) {
+    Writer w;
+    w.bytes = rig_payload(rig);
+    put_corrections(w, rig);
+    return frame(kRigMagic, kRigFormatVersion, w.bytes);
+}
+
+uint64_t rig_fingerprint(const Rig& rig) {
+    uint64_t h = 1469598103934665603ull;
+    for (uint8_t byte : rig_payload(rig)) h = (h ^ byte) * 1099511628211ull;
+    return h;
+}
+
+Rig deserialize_rig(const uint8_t* data, size_t size) {
+    uint32_t version = 0;
+    Reader r = unframe(data, size, kRigMagic, kRigFormatVersion, "rig", 1, &version);
+    const int32_t B = r.get<int32_t>();
+    if (B < 1 || B > 100000) throw CorruptData("rig blob has an invalid bone count");
+    std::vector<int> parents(B);
+    std::vector<dmat4> rest(B);
+    std::vector<dvec3> heads(B), tails(B);
+    for (int b = 0; b < B; ++b) {
+        parents[b] = r.get<int32_t>();
+        rest[b] = r.get_glm<dmat4>();
+        heads[b] = r.get_glm<dvec3>();
+        tails[b] = r.get_glm<dvec3>();
+    }
+    Rig rig;
+    rig.skeleton = Skeleton::build(std::move(parents), std::move(rest), std::move(heads), std::move(tails));
+    const int32_t S = r.get<int32_t>();
+    if (S < 0 || S > 1024) throw CorruptData("rig blob has an invalid sweep count");
+    for (int s = 0; s < S; ++s) {
+        const int32_t K = r.get<int32_t>();
+        if (K < 2 || K > 256) throw CorruptData("rig blob has an invalid key count");
+        std::vector<KeyEllipse> keys(K);
+        for (KeyEllipse& k : keys) {
+            k.center = r.get_glm<dvec3>();
+            k.orientation = r.get_glm<dquat>();
+            k.a = r.get<double>();
+            k.b = r.get<double>();
+            k.bone = r.get<int32_t>();
+            k.joint_parent = r.get<int32_t>();
+            k.swing_fraction = r.get<double>();
+            k.twist_fraction = r.get<double>();
+        }
+        rig.add_sweep(std::move(keys));
+    }
+    if (version >= 2) get_corrections(r, rig);
+    if (r.left() != 0) throw CorruptData("rig blob has trailing bytes");
+    return rig;
+}
+
+std::vector<uint8_t> serialize_binding(const Binding& b) {
+    Writer w;
+    w.put<uint64_t>(b.rig_fingerprint);
+    w.put_array(b.rest_positions);
+    w.put_array(b.sweep_offsets);
+    w.put_array(b.sweep_influences);
+    w.put_array(b.bone_offsets);
+    w.put_array(b.bone_influences);
+    return frame(kBindingMagic, kBindingFormatVersion, w.bytes);
+}
+
+Binding deserialize_binding(const uint8_t* data, size_t size) {
+    Reader r = unframe(data, size, kBindingMagic, kBindingFormatVersion, "binding");
+    constexpr size_t kMax = size_t(1) << 31;
+    Binding b;
+    b.rig_fingerprint = r.get<uint64_t>();
+    b.rest_positions = r.get_array<float>(kMax);
+    b.sweep_offsets = r.get_array<uint32_t>(kMax);
+    b.sweep_influences = r.get_array<SweepInfluence>(kMax);
+    b.bone_offsets = r.get_array<uint32_t>(kMax);
+    b.bone_influences = r.get_array<BoneInfluence>(kMax);
+    if (r.left() != 0) throw CorruptData("binding blob has trailing bytes");
+    b.check_structure();
+    return b;
+}
+
+}  // namespace sd

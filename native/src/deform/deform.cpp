@@ -1,0 +1,155 @@
+#include "deform/deform.h"
+
+#include "rig/key_pose.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace sd {
+
+namespace {
+
+/// Length of sweep along its normals over one span: the chord times the mean of <N, T> at
+/// both ends (the volume's density per unit area, Sect. 4.4, integrated coarsely).
+double span_thickness(const SweepGeometry& g, int span) {
+    const double tilt = 0.5 * (glm::dot(g.normal(span, 0.0), g.tangent(span, 0.0)) +
+                               glm::dot(g.normal(span, 1.0), g.tangent(span, 1.0)));
+    return g.span_length(span) * std::max(tilt, 0.0);
+}
+
+}  // namespace
+
+void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
+                          std::vector<double>& b) {
+    // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
+    // shorter than at rest where it bends; each key's cross-section grows by what its two
+    // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
+    // (which made a ledge across a bent torso).
+    const int K = s.key_count();
+    std::vector<double> ratio(K - 1);
+    for (int span = 0; span < K - 1; ++span) {
+        const double rest = span_thickness(s.rest_geometry, span);
+        const double pose = span_thickness(posed, span);
+        ratio[span] = rest > 0.0 && pose > 0.0 ? std::clamp(rest / pose, 0.5, 2.0) : 1.0;
+    }
+    for (int k = 0; k < K; ++k) {
+        double r = 0.0;
+        int n = 0;
+        if (k > 0) r += ratio[k - 1], ++n;
+        if (k < K - 1) r += ratio[k], ++n;
+        const double scale = std::sqrt(1.0 + strength * (r / n - 1.0));
+        a[k] *= scale;
+        b[k] *= scale;
+    }
+}
+
+Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(std::move(binding)) {
+    binding_.check_structure();
+    binding_.check_against(rig_);
+    int base = 0;
+    for (const Sweep& s : rig_.sweeps) {
+        span_base_.push_back(base);
+        base += s.span_count();
+    }
+    half_spans_.resize(2 * static_cast<size_t>(base));
+    kernel_ = SweepKernel(binding_, span_base_);
+    volume_offsets_.assign(rig_.sweeps.size(), 0.0);
+    volume_before.assign(rig_.sweeps.size(), 0.0);
+    volume_after.assign(rig_.sweeps.size(), 0.0);
+    volume_iterations.assign(rig_.sweeps.size(), 0);
+}
+
+void Deformer::set_volume_preservation(bool enabled, double strength) {
+    if (!(strength >= 0.0 && strength <= 1.0)) throw InvalidInput("volume preservation strength must be in [0, 1]");
+    volume_enabled_ = enabled;
+    volume_strength_ = strength;
+}
+
+void Deformer::set_volume_offsets(const std::vector<double>& offsets) {
+    if (offsets.size() != rig_.sweeps.size()) throw InvalidInput("one volume offset per sweep is needed");
+    for (size_t s = 0; s < offsets.size(); ++s) {
+        // The target V0 - offset must stay a plausible volume: 10 % .. 10x the rest volume.
+        const double v0 = rig_.sweeps[s].rest_volume;
+        if (!(offsets[s] <= 0.9 * v0 && offsets[s] >= -9.0 * v0))
+            throw InvalidInput("volume offset of sweep " + std::to_string(s) +
+                               " must lie in [-9, 0.9] x its rest volume (" + std::to_string(v0) + ")");
+    }
+    volume_offsets_ = offsets;
+}
+
+void Deformer::prepare_sweeps(const SkeletonPose& pose) {
+    std::vector<dvec3> centers;
+    std::vector<dquat> rotations;
+    for (size_t si = 0; si < rig_.sweeps.size(); ++si) {
+        const Sweep& s = rig_.sweeps[si];
+        pose_keys(s, pose, centers, rotations);
+        // The artist's corrections (Sect. 4.2) move, turn and scale the placed keys; scaled
+        // half-axes are where the volume controller starts from.
+        std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
+        if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
+        const SweepGeometry g(centers, rotations);
+        if (s.bends_smoothly && volume_enabled_ && volume_strength_ > 0.0)
+            restore_local_volume(s, g, volume_strength_, a, b);
+
+        // Volume control (Sect. 4.4) on the key half-axes.
+        const VolumeForm form(s.quadrature, volume_density(s.quadrature, g));
+        if (volume_enabled_ && volume_strength_ > 0.0) {
+            const double before = form.volume(a.data(), b.data());
+            // V0 of the corrected rest pose, plus what the artist's scaling adds in this pose
+            // (kept: the controller must not undo an edit).
+            double edited = 0.0;
+            if (s.has_corrections && (a != s.rest_half_axes.a || b != s.rest_half_axes.b))
+                edited = before - form.volume(s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
+            const double target =
+                before + volume_strength_ * (s.corrected_rest_volume + edited - volume_offsets_[si] - before);
+            const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
+            volume_before[si] = r.before;
+            volume_after[si] = r.after;
+            volume_iterations[si] = r.iterations;
+        } else {
+            volume_before[si] = volume_after[si] = form.volume(a.data(), b.data());
+            volume_iterations[si] = 0;
+        }
+
+        const int K = s.key_count();
+        std::vector<double> da(K), db(K);
+        for (int k = 0; k < K; ++k) {
+            da[k] = a[k] - s.rest_half_axes.a[k];
+            db[k] = b[k] - s.rest_half_axes.b[k];
+        }
+        const auto& q = g.key_rotations();
+        for (int span = 0; span < s.span_count(); ++span)
+            for (int half = 0; half < 2; ++half) {
+                HalfSpanKernel& kern = half_spans_[2 * static_cast<size_t>(span_base_[si] + span) + half];
+                const CubicSpan& c = g.center_span(span);
+                for (int i = 0; i < 4; ++i)
+                    for (int j = 0; j < 3; ++j) kern.c[i][j] = static_cast<float>(c.c[i][j]);
+                const dquat &q0 = q[span], &q1 = q[span + 1];
+                const double v0[4] = {q0.x, q0.y, q0.z, q0.w}, v1[4] = {q1.x, q1.y, q1.z, q1.w};
+                for (int i = 0; i < 4; ++i) {
+                    kern.q0[i] = static_cast<float>(v0[i]);
+                    kern.q1[i] = static_cast<float>(v1[i]);
+                }
+                for (int r = 0; r < 3; ++r) {
+                    double sa = 0.0, sb = 0.0;
+                    for (int k = 0; k < K; ++k) {
+                        const double phi = s.rest_half_axes.basis.coefficients(span, half, k)[r];
+                        sa += da[k] * phi;
+                        sb += db[k] * phi;
+                    }
+                    kern.da[r] = static_cast<float>(sa);
+                    kern.db[r] = static_cast<float>(sb);
+                }
+            }
+    }
+}
+
+void Deformer::deform(const float* pose, float* out) {
+    pose_.set(rig_.skeleton, pose);
+    prepare_sweeps(pose_);
+    bones_ = bone_affines(pose_);
+
+    kernel_.run(half_spans_.data(), bones_.data(), binding_, out);
+}
+
+}  // namespace sd

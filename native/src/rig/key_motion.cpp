@@ -1,0 +1,123 @@
+#include "rig/key_motion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace sd {
+
+namespace {
+
+/// Where a link runs at rest: from its head to the next joint key's joint (or its tail).
+struct Link {
+    dvec3 start{0.0}, end{0.0};
+    double fraction_of(const dvec3& p) const {
+        const dvec3 d = end - start;
+        const double len2 = glm::dot(d, d);
+        return len2 > 0.0 ? std::clamp(glm::dot(p - start, d) / len2, 0.0, 1.0) : 0.5;
+    }
+};
+
+/// Thick chains: each key's blend of the chain's bones, over a window of half-width `h`
+/// along the chain (clipped at the chain's start, so the first keys stay with the first
+/// bone, as the pelvis holds the hips; the last bone reaches on beyond the chain).
+void blend_thick_chain(const std::vector<KeyEllipse>& keys, const Skeleton& skeleton, const std::vector<char>& blended,
+                       double h, std::vector<KeyMotion>& motions) {
+    const int K = static_cast<int>(keys.size());
+    std::vector<int> bones;  // the chain's links in order
+    for (int k = 0; k < K; ++k)
+        if (blended[k] && (bones.empty() || bones.back() != keys[k].bone)) bones.push_back(keys[k].bone);
+    const dvec3 origin = keys.front().center;
+    dvec3 axis = keys.back().center - origin;
+    axis = glm::length(axis) > 0.0 ? glm::normalize(axis) : dvec3(0, 0, 1);
+    const auto along = [&](const dvec3& p) { return glm::dot(p - origin, axis); };
+    const int n = static_cast<int>(bones.size());
+    std::vector<double> from(n), to(n);
+    for (int i = 0; i < n; ++i) from[i] = along(skeleton.heads[bones[i]]);
+    for (int i = 0; i + 1 < n; ++i) to[i] = from[i + 1];
+    to[n - 1] = std::numeric_limits<double>::infinity();
+    from[0] = std::min(from[0], 0.0);
+    for (int k = 0; k < K; ++k) {
+        if (!blended[k]) continue;
+        const double s = along(keys[k].center);
+        const double r = std::max(0.0, std::min(h, s - from[0]));
+        KeyMotion& m = motions[k];
+        m.blend.clear();
+        double total = 0.0;
+        for (int i = 0; i < n; ++i) {
+            const double w = std::max(0.0, std::min(s + r, to[i]) - std::max(s - r, from[i]));
+            if (w > 0.0) {
+                m.blend.push_back({bones[i], w});
+                total += w;
+            }
+        }
+        if (!(total > 0.0)) {  // a window of zero width: the bone the key sits on
+            m.blend.assign(1, {keys[k].bone, 1.0});
+            total = 1.0;
+        }
+        for (auto& bw : m.blend) bw.second /= total;
+        if (m.blend.size() == 1 && m.blend[0].first == keys[k].bone) m.blend.clear();  // rigid
+    }
+}
+
+}  // namespace
+
+std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Skeleton& skeleton) {
+    const int K = static_cast<int>(keys.size());
+    std::vector<KeyMotion> motions(K);
+    // Per intermediate key: its joint keys before and after along its own link, and its link.
+    std::vector<int> before(K, -1), after(K, -1);
+    std::vector<Link> links(K);
+    std::vector<double> ratios, radii;
+    std::vector<int> intermediate_bones;
+    for (int k = 0; k < K; ++k) {
+        const KeyEllipse& e = keys[k];
+        if (e.is_joint_key()) continue;
+        intermediate_bones.push_back(e.bone);
+        for (int j = k - 1; j >= 0 && before[k] < 0; --j)
+            if (keys[j].is_joint_key() && keys[j].bone == e.bone) before[k] = j;
+        for (int j = k + 1; j < K && after[k] < 0; ++j)
+            if (keys[j].is_joint_key() && keys[j].joint_parent == e.bone) after[k] = j;
+        links[k].start = skeleton.heads[e.bone];
+        links[k].end = after[k] >= 0 ? skeleton.heads[keys[after[k]].bone] : skeleton.tails[e.bone];
+        const double len = glm::length(links[k].end - links[k].start);
+        radii.push_back(std::max(e.a, e.b));
+        if (len > 0.0) ratios.push_back(std::max(e.a, e.b) / len);
+    }
+    const auto median = [](std::vector<double> v) {
+        std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+        return v[v.size() / 2];
+    };
+    const bool thick = !ratios.empty() && median(ratios) >= kThickChainRatio;
+    const auto on_chain = [&](int bone) {
+        return std::find(intermediate_bones.begin(), intermediate_bones.end(), bone) != intermediate_bones.end();
+    };
+    std::vector<char> blended(K, 0);
+    for (int k = 0; k < K; ++k) {
+        const KeyEllipse& e = keys[k];
+        KeyMotion& m = motions[k];
+        m.from_bone = m.to_bone = e.bone;
+        // A thick chain's own keys (not a joint with another chain: the neck's start) blend.
+        if (thick && (!e.is_joint_key() || (on_chain(e.bone) && on_chain(e.joint_parent)))) {
+            blended[k] = 1;
+        } else if (e.is_joint_key()) {
+            m.from_bone = e.joint_parent;
+            m.swing_share = e.swing_fraction;
+            m.twist_share = e.twist_fraction;
+            m.axis = e.normal();
+            m.turns_about_pivot = true;
+            m.pivot = skeleton.heads[e.bone];
+        } else if (after[k] >= 0 && after[k] == K - 1) {
+            // The last link: its share of the end key's twist, none of its swing.
+            const KeyEllipse& j = keys[after[k]];
+            m.to_bone = j.bone;
+            m.twist_share = links[k].fraction_of(e.center) * j.twist_fraction;
+            m.axis = j.normal();
+            if (m.twist_share == 0.0) m.to_bone = e.bone;
+        }
+    }
+    if (thick) blend_thick_chain(keys, skeleton, blended, median(radii), motions);
+    return motions;
+}
+
+}  // namespace sd

@@ -1,0 +1,49 @@
+// How each key ellipse follows the skeleton (Sect. 4.1), derived once per sweep from its keys
+// and the rest skeleton (never stored: a rig blob gives the same motions when read back).
+//
+// The paper: a joint key keeps its center at the joint and turns by half the joint's
+// rotation; an intermediate key follows its link rigidly. We keep that for the limbs, and
+// depart twice:
+//  - Twist is spread along the last link. The end key (wrist, ankle, head) takes the whole
+//    twist of the hand, foot or head; the intermediate keys before it take a share
+//    proportional to their place along the link. With rigid intermediate keys the whole
+//    turn happened between the last intermediate key and the wrist, where the hand's own
+//    skin weight blends in, and the skin collapsed into a ring-shaped groove.
+//  - A thick chain bends smoothly. Where the ellipses are wide against their links (a torso:
+//    vertebrae a few centimetres long in a body 25 cm deep), the keys follow a blend of the
+//    chain's bones over a window as wide as the body (center: the blended transforms;
+//    orientation: the blended rotations). Two neighbouring planes cross on the line about
+//    which they turn; folding at each joint puts that line on the spine, and the belly, more
+//    than a vertebra's length times the bend in front of it, passes through itself.
+#pragma once
+
+#include "rig/key_ellipse.h"
+#include "rig/skeleton.h"
+
+#include <utility>
+#include <vector>
+
+namespace sd {
+
+struct KeyMotion {
+    /// Thick chains: (bone, weight) pairs, weights summing to 1; the key follows their blend.
+    std::vector<std::pair<int, double>> blend;
+    /// Otherwise rot(from) * swing^swing_share * twist^twist_share * q_rest, with swing and
+    /// twist of rot(from)^-1 rot(to) about `axis` (rest space); from == to: rigid.
+    int from_bone = -1, to_bone = -1;
+    double swing_share = 0.0, twist_share = 0.0;
+    dvec3 axis{0, 0, 1};
+    /// Joint keys: the center turns with the key about this rest point (the joint), so a key
+    /// centered off its joint (a spine key at its section's centroid) stays in its plane.
+    bool turns_about_pivot = false;
+    dvec3 pivot{0.0};
+};
+
+/// A chain is thick when its intermediate keys' larger half-axis is at least this share of
+/// their link's length (median over the keys): a torso, not an arm or a leg.
+constexpr double kThickChainRatio = 0.5;
+
+/// The motion of every key of one sweep (see the file comment).
+std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Skeleton& skeleton);
+
+}  // namespace sd

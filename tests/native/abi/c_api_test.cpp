@@ -1,0 +1,321 @@
+// The C ABI as a caller sees it (through libsweepdeform.so only): every invalid input is an
+// error code plus a message and changes nothing; blobs round-trip; corrupt blobs are refused.
+#include "sweepdeform/sweepdeform.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace {
+
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+/// The synthetic arm of test_arm.h, built through the ABI: 3 bones along +x, 7 keys.
+struct AbiArm {
+    std::vector<int32_t> parents = {-1, 0, 1};
+    std::vector<float> rest, heads = {0, 0, 0, 1, 0, 0, 2, 0, 0}, tails = {1, 0, 0, 2, 0, 0, 2.3f, 0, 0};
+    std::vector<float> centers, orientations, half_axes, fractions;
+    std::vector<int32_t> bones = {0, 0, 0, 1, 1, 1, 2}, joint_parents = {-1, -1, -1, 0, -1, -1, 1};
+    std::vector<float> mesh;
+    sd_rig* rig = nullptr;
+
+    AbiArm() {
+        for (int b = 0; b < 3; ++b) {
+            float m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, heads[3 * b], 0, 0, 1};
+            rest.insert(rest.end(), m, m + 16);
+        }
+        // Rotation with columns (y, z, x): the quaternion (w,x,y,z) = (0.5, 0.5, 0.5, 0.5).
+        for (int k = 0; k < 7; ++k) {
+            centers.insert(centers.end(), {k / 3.0f, 0, 0});
+            orientations.insert(orientations.end(), {0.5f, 0.5f, 0.5f, 0.5f});
+            half_axes.insert(half_axes.end(), {0.1f, 0.07f});
+            fractions.insert(fractions.end(), {0.5f, k == 6 ? 1.0f : 0.5f});
+        }
+        for (int r = 0; r < 21; ++r)
+            for (int s = 0; s < 16; ++s) {
+                const double th = 2 * M_PI * s / 16;
+                mesh.insert(mesh.end(), {r / 10.0f, float(0.1 * std::cos(th)), float(0.07 * std::sin(th))});
+            }
+        EXPECT_EQ(sd_rig_create(3, parents.data(), rest.data(), heads.data(), tails.data(), &rig), SD_OK);
+        EXPECT_EQ(add_sweep(), SD_OK) << sd_last_error();
+    }
+    ~AbiArm() { sd_rig_destroy(rig); }
+    sd_status add_sweep() {
+        return sd_rig_add_sweep(rig, 7, centers.data(), orientations.data(), half_axes.data(), bones.data(),
+                                joint_parents.data(), fractions.data(), nullptr);
+    }
+    int vertex_count() const { return static_cast<int>(mesh.size() / 3); }
+    sd_status bind(sd_binding** out) const {
+        std::vector<int32_t> ids(vertex_count(), 0);
+        std::vector<float> w(vertex_count(), 1.0f);
+        return sd_bind(rig, vertex_count(), mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, out);
+    }
+};
+
+void expect_error(sd_status status, sd_status expected, const char* what) {
+    EXPECT_EQ(status, expected) << what;
+    EXPECT_GT(std::strlen(sd_last_error()), 10u) << what << ": the message explains the error";
+}
+
+TEST(CApi, ReportsItsVersion) {
+    EXPECT_EQ(sd_abi_version(), SD_ABI_VERSION);
+    EXPECT_STREQ(sd_library_version(), "0.1.0");
+}
+
+TEST(CApi, InvalidSkeletonsAreRefused) {
+    AbiArm arm;
+    sd_rig* rig = nullptr;
+    const auto create = [&](int n, const int32_t* parents, const float* rest, const float* heads, const float* tails) {
+        return sd_rig_create(n, parents, rest, heads, tails, &rig);
+    };
+    expect_error(create(0, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "zero bones");
+    expect_error(create(3, nullptr, arm.rest.data(), arm.heads.data(), arm.tails.data()), SD_ERR_INVALID_ARGUMENT,
+                 "NULL parents");
+    std::vector<int32_t> bad_parents = {-1, 2, 1};
+    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "parent cycle");
+    bad_parents = {-1, 0, 3};
+    expect_error(create(3, bad_parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "parent out of range");
+    std::vector<float> rest = arm.rest;
+    rest[5] = kNaN;
+    expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "NaN rest");
+    rest = arm.rest;
+    rest[0] = rest[5] = rest[10] = 0;  // zero scale
+    expect_error(create(3, arm.parents.data(), rest.data(), arm.heads.data(), arm.tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "degenerate rest");
+    std::vector<float> tails = arm.tails;
+    tails[0] = 0;  // zero-length bone
+    expect_error(create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), tails.data()),
+                 SD_ERR_INVALID_ARGUMENT, "zero length");
+    EXPECT_EQ(rig, nullptr) << "no handle is returned on failure";
+    expect_error(sd_rig_create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data(), nullptr),
+                 SD_ERR_INVALID_ARGUMENT, "NULL out pointer");
+    sd_rig_destroy(rig);
+}
+
+TEST(CApi, InvalidKeyEllipsesAreRefusedAndChangeNothing) {
+    AbiArm arm;
+    const auto check = [&](const char* what, auto mutate) {
+        AbiArm a;
+        mutate(a);
+        expect_error(a.add_sweep(), SD_ERR_INVALID_ARGUMENT, what);
+        EXPECT_EQ(sd_rig_sweep_count(a.rig), 1) << what << ": the rig is unchanged";
+    };
+    check("non-unit quaternion", [](AbiArm& a) { a.orientations[4] = 0.9f; });
+    check("zero half-axis", [](AbiArm& a) { a.half_axes[2] = 0.0f; });
+    check("negative half-axis", [](AbiArm& a) { a.half_axes[3] = -0.1f; });
+    check("NaN center", [](AbiArm& a) { a.centers[4] = kNaN; });
+    check("infinite half-axis", [](AbiArm& a) { a.half_axes[0] = INFINITY; });
+    check("bone out of range", [](AbiArm& a) { a.bones[2] = 3; });
+    check("joint parent out of range", [](AbiArm& a) { a.joint_parents[3] = -2; });
+    check("coincident centers", [](AbiArm& a) { a.centers[3] = 0.0f; });
+    check("fraction above 1", [](AbiArm& a) { a.fractions[0] = 1.5f; });
+    check("normal against the sweep", [](AbiArm& a) {
+        for (int k = 0; k < 7; ++k) a.centers[3 * k] = -a.centers[3 * k];
+    });
+    expect_error(sd_rig_add_sweep(arm.rig, 1, arm.centers.data(), arm.orientations.data(), arm.half_axes.data(),
+                                  arm.bones.data(), arm.joint_parents.data(), arm.fractions.data(), nullptr),
+                 SD_ERR_INVALID_ARGUMENT, "one key");
+    expect_error(sd_rig_add_sweep(nullptr, 7, arm.centers.data(), arm.orientations.data(), arm.half_axes.data(),
+                                  arm.bones.data(), arm.joint_parents.data(), arm.fractions.data(), nullptr),
+                 SD_ERR_INVALID_ARGUMENT, "NULL rig");
+    EXPECT_EQ(sd_rig_key_count(arm.rig, 5), -1);
+}
+
+TEST(CApi, InvalidBindingInputsAreRefused) {
+    AbiArm arm;
+    const int V = arm.vertex_count();
+    std::vector<int32_t> ids(V, 0);
+    std::vector<float> w(V, 1.0f);
+    sd_binding* b = nullptr;
+    std::vector<float> mesh = arm.mesh;
+    mesh[7] = kNaN;
+    expect_error(sd_bind(arm.rig, V, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "NaN vertex");
+    ids[3] = 1;
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "sweep out of range");
+    ids[3] = 0;
+    w[4] = -1.0f;
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "negative weight");
+    w[4] = 0.0f;
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "no weight");
+    w[4] = 1.0f;
+    std::vector<int32_t> bone_ids(V, 7);
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, ids.data(), w.data(), 1, bone_ids.data(), w.data(), &b),
+                 SD_ERR_INVALID_ARGUMENT, "bone out of range");
+    expect_error(sd_bind(arm.rig, 0, arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "zero vertices");
+    expect_error(sd_bind(arm.rig, V, arm.mesh.data(), 1, nullptr, w.data(), 0, nullptr, nullptr, &b),
+                 SD_ERR_INVALID_ARGUMENT, "NULL ids");
+    EXPECT_EQ(b, nullptr);
+}
+
+TEST(CApi, InvalidPosesAreRefusedAndLeaveTheOutputAlone) {
+    AbiArm arm;
+    sd_binding* b = nullptr;
+    ASSERT_EQ(arm.bind(&b), SD_OK) << sd_last_error();
+    sd_deformer* d = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &d), SD_OK) << sd_last_error();
+    const int V = arm.vertex_count();
+    std::vector<float> out(3 * V, 42.0f), pose = arm.rest;
+    pose[13] = kNaN;
+    expect_error(sd_deform(d, 3, pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT, "NaN pose");
+    pose = arm.rest;
+    pose[16] = 1e30f;
+    expect_error(sd_deform(d, 3, pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT, "enormous pose");
+    pose = arm.rest;
+    pose[16] = pose[21] = pose[26] = 0.0f;
+    expect_error(sd_deform(d, 3, pose.data(), V, out.data()), SD_ERR_INVALID_ARGUMENT, "zero-scale pose");
+    expect_error(sd_deform(d, 2, arm.rest.data(), V, out.data()), SD_ERR_MISMATCH, "bone count");
+    expect_error(sd_deform(d, 3, arm.rest.data(), V - 1, out.data()), SD_ERR_MISMATCH, "vertex count");
+    expect_error(sd_deformer_set_volume_preservation(d, 1, 1.5f), SD_ERR_INVALID_ARGUMENT, "strength");
+    for (float x : out) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    ASSERT_EQ(sd_deform(d, 3, arm.rest.data(), V, out.data()), SD_OK);
+    for (int i = 0; i < 3 * V; ++i) ASSERT_NEAR(out[i], arm.mesh[i], 1e-6);
+    sd_deformer_destroy(d);
+    sd_binding_destroy(b);
+}
+
+TEST(CApi, BlobsRoundTripExactly) {
+    AbiArm arm;
+    int64_t size = 0;
+    ASSERT_EQ(sd_rig_serialize(arm.rig, nullptr, 0, &size), SD_OK);
+    std::vector<uint8_t> blob(size);
+    ASSERT_EQ(sd_rig_serialize(arm.rig, blob.data(), size, &size), SD_OK);
+    sd_rig* copy = nullptr;
+    ASSERT_EQ(sd_rig_deserialize(blob.data(), size, &copy), SD_OK) << sd_last_error();
+    std::vector<uint8_t> again(size);
+    ASSERT_EQ(sd_rig_serialize(copy, again.data(), size, &size), SD_OK);
+    EXPECT_EQ(blob, again);
+
+    sd_binding* b = nullptr;
+    ASSERT_EQ(arm.bind(&b), SD_OK);
+    ASSERT_EQ(sd_binding_serialize(b, nullptr, 0, &size), SD_OK);
+    std::vector<uint8_t> bblob(size);
+    ASSERT_EQ(sd_binding_serialize(b, bblob.data(), size, &size), SD_OK);
+    sd_binding* b2 = nullptr;
+    ASSERT_EQ(sd_binding_deserialize(bblob.data(), size, &b2), SD_OK) << sd_last_error();
+    // The loaded rig and binding deform exactly like the originals.
+    sd_deformer *d1 = nullptr, *d2 = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &d1), SD_OK);
+    ASSERT_EQ(sd_deformer_create(copy, b2, &d2), SD_OK) << sd_last_error();
+    std::vector<float> pose = arm.rest, o1(arm.mesh.size()), o2(arm.mesh.size());
+    pose[12 + 16] = 1.1f;  // move the forearm a little
+    ASSERT_EQ(sd_deform(d1, 3, pose.data(), arm.vertex_count(), o1.data()), SD_OK);
+    ASSERT_EQ(sd_deform(d2, 3, pose.data(), arm.vertex_count(), o2.data()), SD_OK);
+    EXPECT_EQ(o1, o2);
+    sd_deformer_destroy(d1);
+    sd_deformer_destroy(d2);
+    sd_binding_destroy(b);
+    sd_binding_destroy(b2);
+    sd_rig_destroy(copy);
+}
+
+TEST(CApi, ARigReadBackIsTheRigThatWasSaved) {
+    // Orientations that are unit only to float precision, as a caller sends them: the rig is
+    // normalised once on the way in; loading its blob must not change a bit, or a binding
+    // saved with it would no longer match (its fingerprint covers the rig's bytes).
+    AbiArm arm;
+    for (int k = 0; k < 7; ++k) {
+        const float a = 0.3f + 0.1f * k, c = std::cos(a), s = std::sin(a);
+        const float q[4] = {0.5f * (c + s), 0.5f * (c - s), 0.5f * (c + s), 0.5f * (c - s)};
+        for (int i = 0; i < 4; ++i) arm.orientations[4 * k + i] = q[i] * 1.0000003f;
+    }
+    sd_rig* rig = nullptr;
+    ASSERT_EQ(sd_rig_create(3, arm.parents.data(), arm.rest.data(), arm.heads.data(), arm.tails.data(), &rig), SD_OK);
+    ASSERT_EQ(sd_rig_add_sweep(rig, 7, arm.centers.data(), arm.orientations.data(), arm.half_axes.data(),
+                               arm.bones.data(), arm.joint_parents.data(), arm.fractions.data(), nullptr),
+              SD_OK)
+        << sd_last_error();
+    const auto blob_of = [](const sd_rig* r) {
+        int64_t n = 0;
+        sd_rig_serialize(r, nullptr, 0, &n);
+        std::vector<uint8_t> b(n);
+        sd_rig_serialize(r, b.data(), n, &n);
+        return b;
+    };
+    const std::vector<uint8_t> saved = blob_of(rig);
+    sd_rig* loaded = nullptr;
+    ASSERT_EQ(sd_rig_deserialize(saved.data(), static_cast<int64_t>(saved.size()), &loaded), SD_OK);
+    EXPECT_EQ(blob_of(loaded), saved);
+    std::vector<int32_t> ids(arm.vertex_count(), 0);
+    std::vector<float> w(arm.vertex_count(), 1.0f);
+    sd_binding* b = nullptr;
+    ASSERT_EQ(sd_bind(rig, arm.vertex_count(), arm.mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b),
+              SD_OK);
+    sd_deformer* d = nullptr;
+    EXPECT_EQ(sd_deformer_create(loaded, b, &d), SD_OK) << sd_last_error();
+    sd_deformer_destroy(d);
+    sd_binding_destroy(b);
+    sd_rig_destroy(loaded);
+    sd_rig_destroy(rig);
+}
+
+TEST(CApi, CorruptOrTruncatedBlobsAreRefused) {
+    AbiArm arm;
+    int64_t size = 0;
+    sd_rig_serialize(arm.rig, nullptr, 0, &size);
+    std::vector<uint8_t> blob(size);
+    sd_rig_serialize(arm.rig, blob.data(), size, &size);
+    sd_rig* out = nullptr;
+    for (int64_t cut : {int64_t(0), int64_t(3), int64_t(16), size / 2, size - 1})
+        expect_error(sd_rig_deserialize(blob.data(), cut, &out), SD_ERR_CORRUPT_DATA, "truncated");
+    for (int64_t i = 0; i < size; i += 7) {  // any flipped bit is caught (checksum, magic, size)
+        std::vector<uint8_t> bad = blob;
+        bad[i] ^= 0x10;
+        expect_error(sd_rig_deserialize(bad.data(), size, &out), SD_ERR_CORRUPT_DATA, "flipped bit");
+    }
+    expect_error(sd_rig_deserialize(nullptr, 100, &out), SD_ERR_CORRUPT_DATA, "NULL");
+    expect_error(sd_rig_deserialize(blob.data(), -5, &out), SD_ERR_CORRUPT_DATA, "negative size");
+    EXPECT_EQ(out, nullptr);
+    sd_binding* b = nullptr;
+    expect_error(sd_binding_deserialize(blob.data(), size, &b), SD_ERR_CORRUPT_DATA, "rig blob as binding");
+    std::vector<uint8_t> small(3);
+    expect_error(sd_rig_serialize(arm.rig, small.data(), 3, &size), SD_ERR_INVALID_ARGUMENT, "small buffer");
+}
+
+TEST(CApi, BindingOfAnotherRigIsAMismatch) {
+    AbiArm arm, other;
+    other.half_axes[0] = 0.11f;
+    sd_rig* rig2 = nullptr;
+    ASSERT_EQ(sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &rig2),
+              SD_OK);
+    ASSERT_EQ(sd_rig_add_sweep(rig2, 7, other.centers.data(), other.orientations.data(), other.half_axes.data(),
+                               other.bones.data(), other.joint_parents.data(), other.fractions.data(), nullptr),
+              SD_OK);
+    sd_binding* b = nullptr;
+    ASSERT_EQ(arm.bind(&b), SD_OK);
+    sd_deformer* d = nullptr;
+    expect_error(sd_deformer_create(rig2, b, &d), SD_ERR_MISMATCH, "other rig");
+    EXPECT_EQ(d, nullptr);
+    sd_binding_destroy(b);
+    sd_rig_destroy(rig2);
+}
+
+TEST(CApi, EvaluatesTheSweepAndItsVolume) {
+    AbiArm arm;
+    const float u[3] = {0.0f, 0.5f, 1.0f};
+    float c[9], n[9], ab[6];
+    ASSERT_EQ(sd_rig_evaluate_sweep(arm.rig, 0, 3, u, c, nullptr, n, nullptr, ab), SD_OK);
+    EXPECT_NEAR(c[3], 1.0f, 1e-6);
+    EXPECT_NEAR(n[6], 1.0f, 1e-6);
+    EXPECT_NEAR(ab[2], 0.1f, 1e-6);
+    double v = 0;
+    ASSERT_EQ(sd_rig_sweep_rest_volume(arm.rig, 0, &v), SD_OK);
+    EXPECT_NEAR(v, M_PI * 0.1 * 0.07 * 2.0, 1e-6);
+    const float bad[1] = {1.5f};
+    expect_error(sd_rig_evaluate_sweep(arm.rig, 0, 1, bad, c, nullptr, nullptr, nullptr, nullptr),
+                 SD_ERR_INVALID_ARGUMENT, "u out of range");
+}
+
+}  // namespace

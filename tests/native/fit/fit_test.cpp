@@ -1,0 +1,888 @@
+// Automatic fitting (Sect. 3.2, 3.5): analytic cross-sections first (elliptic cylinder,
+// mitred L-shaped tube, two tubes in one cut, broken meshes), then every character of
+// ../shared/data: chains, binding coverage, rest round trip, elbow/knee key areas against
+// the true cross-section, 90° bends through the character's own skeleton, and the time of
+// fitting + binding the refined 80K-vertex MakeHuman.
+#include "character_fit.h"
+#include "point_metrics.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "geometry/cross_section.h"
+#include "fit/ellipse_fit.h"
+#include "fit/fit_rig.h"
+#include "deform/linear_blend_skinning.h"
+#include "sweepdeform/sweepdeform.h"
+
+#include <sweepdeform_io/animation.h>
+#include <sweepdeform_io/gltf_loader.h>
+#include <sweepdeform_io/refine.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <tuple>
+
+namespace sd {
+namespace {
+
+using testing::diagonal;
+using testing::max_distance;
+
+// ---- synthetic meshes -----------------------------------------------------------------
+
+/// A closed tube: rings of `segments` points (given per ring), consecutive rings joined by
+/// quads, both ends closed by a fan around the ring's mean. Triangles face outwards when
+/// the rings run counter-clockwise about the tube's direction.
+struct TubeMesh {
+    std::vector<float> positions;
+    std::vector<int32_t> triangles;
+    int vertex_count() const { return static_cast<int>(positions.size() / 3); }
+    int triangle_count() const { return static_cast<int>(triangles.size() / 3); }
+    int add(const dvec3& p) {
+        for (int i = 0; i < 3; ++i) positions.push_back(static_cast<float>(p[i]));
+        return vertex_count() - 1;
+    }
+    void add_tube(const std::vector<std::vector<dvec3>>& rings) {
+        const int n = static_cast<int>(rings[0].size());
+        const int first = vertex_count();
+        for (const auto& ring : rings)
+            for (const dvec3& p : ring) add(p);
+        // Outward: flip everything when the rings turn clockwise about the tube's direction.
+        dvec3 c0(0.0);
+        for (const dvec3& p : rings[0]) c0 += p / static_cast<double>(n);
+        const dvec3 side_normal = glm::cross(rings[0][1] - rings[0][0], rings[1][0] - rings[0][0]);
+        const bool flip = glm::dot(side_normal, rings[0][0] - c0) < 0.0;
+        const auto tri = [&](int i, int j, int k) {
+            if (flip) std::swap(j, k);
+            triangles.insert(triangles.end(), {i, j, k});
+        };
+        for (size_t r = 0; r + 1 < rings.size(); ++r)
+            for (int s = 0; s < n; ++s) {
+                const int a = first + static_cast<int>(r) * n + s, b = first + static_cast<int>(r) * n + (s + 1) % n;
+                tri(a, b, a + n);
+                tri(b, b + n, a + n);
+            }
+        for (int end = 0; end < 2; ++end) {
+            const auto& ring = end == 0 ? rings.front() : rings.back();
+            dvec3 c(0.0);
+            for (const dvec3& p : ring) c += p / static_cast<double>(n);
+            const int center = add(c), base = first + (end == 0 ? 0 : static_cast<int>(rings.size() - 1) * n);
+            for (int s = 0; s < n; ++s) {
+                const int a = base + s, b = base + (s + 1) % n;
+                if (end == 0)
+                    tri(center, b, a);
+                else
+                    tri(center, a, b);
+            }
+        }
+    }
+};
+
+/// An elliptic cylinder along x from x0 to x1 (half-axes a along y, b along z) centered at `offset`.
+std::vector<std::vector<dvec3>> elliptic_rings(double x0, double x1, int rings, int segments, double a, double b,
+                                               const dvec3& offset = dvec3(0.0)) {
+    std::vector<std::vector<dvec3>> out;
+    for (int r = 0; r < rings; ++r) {
+        const double x = x0 + (x1 - x0) * r / (rings - 1);
+        std::vector<dvec3> ring;
+        for (int s = 0; s < segments; ++s) {
+            const double th = 2.0 * M_PI * s / segments;
+            ring.push_back(offset + dvec3(x, a * std::cos(th), b * std::sin(th)));
+        }
+        out.push_back(ring);
+    }
+    return out;
+}
+
+/// A chain of bones along the given joints (bone i from joint i to joint i+1), with rest
+/// matrices that are pure translations.
+Skeleton line_skeleton(const std::vector<dvec3>& joints) {
+    std::vector<int> parents;
+    std::vector<dmat4> rest;
+    std::vector<dvec3> heads, tails;
+    for (size_t i = 0; i + 1 < joints.size(); ++i) {
+        parents.push_back(static_cast<int>(i) - 1);
+        rest.push_back(glm::translate(dmat4(1.0), joints[i]));
+        heads.push_back(joints[i]);
+        tails.push_back(joints[i + 1]);
+    }
+    return Skeleton::build(parents, rest, heads, tails);
+}
+
+fit::FitInput tube_input(const TubeMesh& m, const Skeleton& s, std::vector<std::vector<int>> chains) {
+    fit::FitInput in;
+    in.vertex_count = m.vertex_count();
+    in.positions = m.positions.data();
+    in.triangle_count = m.triangle_count();
+    in.triangles = m.triangles.data();
+    in.skeleton = s;
+    in.chains = std::move(chains);
+    return in;
+}
+
+std::vector<float> rest_pose(const Skeleton& s) {
+    std::vector<float> out;
+    for (const dmat4& m : s.rest)
+        for (int c = 0; c < 4; ++c)
+            for (int r = 0; r < 4; ++r) out.push_back(static_cast<float>(m[c][r]));
+    return out;
+}
+
+// ---- analytic ---------------------------------------------------------------------------
+
+TEST(FitAnalytic, EllipseFitIsExactOnEllipsePoints) {
+    // A rotated ellipse about a fixed center, sampled unevenly; also only 60 % of it.
+    const double a = 0.3, b = 0.11, phi = 0.7;
+    const dvec2 c(0.4, -0.2), u(std::cos(phi), std::sin(phi)), w(-u.y, u.x);
+    for (double span : {1.0, 0.6}) {
+        std::vector<dvec2> pts;
+        for (int i = 0; i < 40; ++i) {
+            const double t = 2.0 * M_PI * span * std::pow(i / 40.0, 1.3);
+            pts.push_back(c + a * std::cos(t) * u + b * std::sin(t) * w);
+        }
+        const fit::Ellipse2 e = fit::fit_ellipse_fixed_center(pts, std::vector<double>(pts.size(), 1.0), c);
+        ASSERT_TRUE(e.valid);
+        EXPECT_NEAR(e.a, a, 1e-9);
+        EXPECT_NEAR(e.b, b, 1e-9);
+        EXPECT_NEAR(std::abs(glm::dot(e.axis, u)), 1.0, 1e-9);
+        EXPECT_LT(e.rms, 1e-9);
+    }
+}
+
+TEST(FitAnalytic, EllipticCylinderCutGivesItsEllipse) {
+    // Rings every 1/12 (where the keys of the chain below fall), 48 segments.
+    const double a = 0.12, b = 0.07;
+    TubeMesh m;
+    m.add_tube(elliptic_rings(-2.0 / 12, 14.0 / 12, 17, 48, a, b));
+    const fit::FitMesh mesh(m.vertex_count(), m.positions.data(), m.triangle_count(), m.triangles.data());
+    EXPECT_EQ(mesh.stats().components, 1);
+    EXPECT_EQ(mesh.stats().boundary_edges, 0);
+    EXPECT_EQ(mesh.stats().nonmanifold_faces, 0);
+    // Through a ring the section is exact; between rings, tilted, its points on the
+    // triangles' diagonals lie on chords, at most 1 - cos(π/48) = 0.2 % inside.
+    for (const auto& [x, tilt, tolerance] : {std::tuple{5.0 / 12, 0.0, 1e-6}, std::tuple{0.537, 0.4, 2.2e-3}}) {
+        const dvec3 o(x, 0.0, 0.0), n = glm::normalize(dvec3(std::cos(tilt), std::sin(tilt), 0.0));
+        const auto loops = fit::cut_mesh(mesh, o, n);
+        ASSERT_EQ(loops.size(), 1u);
+        EXPECT_TRUE(loops[0].closed);
+        const fit::PlaneFrame f(o, n, dvec3(0, 1, 0));
+        std::vector<dvec2> poly;
+        for (const auto& p : loops[0].points) poly.push_back(f.to_plane(p.p));
+        const fit::Ellipse2 e = fit::fit_ellipse_fixed_center(poly, fit::arc_length_weights(poly), dvec2(0.0));
+        ASSERT_TRUE(e.valid);
+        EXPECT_NEAR(e.a / (a / std::cos(tilt)), 1.0, tolerance) << "tilt " << tilt;
+        EXPECT_NEAR(e.b / b, 1.0, tolerance) << "tilt " << tilt;
+        EXPECT_NEAR(std::abs(e.axis.x), 1.0, 1e-6);  // first axis along the frame's u (≈ y)
+        EXPECT_LT(glm::length(fit::polygon_centroid(poly)), 1e-6);
+    }
+
+    // Through fit_rig with a two-bone chain: every key is the cylinder's ellipse.
+    const Skeleton s = line_skeleton({dvec3(0, 0, 0), dvec3(0.5, 0, 0), dvec3(1.0, 0, 0)});
+    const fit::FitResult r = fit::fit_rig(tube_input(m, s, {{0, 1}}));
+    ASSERT_EQ(r.rig.sweeps.size(), 1u);
+    const auto& keys = r.rig.sweeps[0].keys;
+    EXPECT_EQ(keys.size(), 7u);  // start, 2, joint, 2, end
+    for (size_t k = 0; k < keys.size(); ++k) {
+        EXPECT_NEAR(std::max(keys[k].a, keys[k].b), a, 1e-6) << "key " << k;
+        EXPECT_NEAR(std::min(keys[k].a, keys[k].b), b, 1e-6) << "key " << k;
+        EXPECT_LT(std::abs(keys[k].center.y) + std::abs(keys[k].center.z), 1e-6) << "key " << k;
+        EXPECT_GT(keys[k].normal().x, 1.0 - 1e-9);
+        const auto& rep = r.fits[0].reports[k];
+        EXPECT_FALSE(rep.fallback);
+        // The section polygon is inscribed in the ellipse: its area is 0.3 % smaller.
+        EXPECT_NEAR(rep.ellipse_area / rep.section_area, 1.0, 0.005);
+    }
+    EXPECT_EQ(keys[3].joint_parent, 0);
+    EXPECT_EQ(keys[3].bone, 1);
+    EXPECT_EQ(r.weights.vertices_bound, m.vertex_count());
+
+    // keys_per_link: joints only, or more intermediates.
+    for (int per_link : {0, 3}) {
+        fit::FitOptions options;
+        options.keys.keys_per_link = per_link;
+        const fit::FitResult rk = fit::fit_rig(tube_input(m, s, {{0, 1}}), options);
+        ASSERT_EQ(rk.rig.sweeps.size(), 1u);
+        EXPECT_EQ(rk.rig.sweeps[0].key_count(), 3 + 2 * per_link);
+    }
+}
+
+TEST(FitAnalytic, MitredTubeElbowKeyIsTheMitreEllipse) {
+    // Tube of radius r along +x to the corner (1,0,0), then along +y: the mitre joint lies
+    // in the bisector plane, where the section is an ellipse of half-axes r√2 and r.
+    const double r = 0.1;
+    const int segments = 64;
+    std::vector<std::vector<dvec3>> rings;
+    for (int i = 0; i < 9; ++i) {  // straight part along x: x in [-0.3, 1 - r - 0.05]
+        const double x = -0.3 + (1.0 - r - 0.05 + 0.3) * i / 8.0;
+        std::vector<dvec3> ring;
+        for (int s = 0; s < segments; ++s) {
+            const double th = 2.0 * M_PI * s / segments;
+            ring.push_back(dvec3(x, r * std::sin(th), r * std::cos(th)));
+        }
+        rings.push_back(ring);
+    }
+    {
+        std::vector<dvec3> mitre;
+        for (int s = 0; s < segments; ++s) {
+            const double th = 2.0 * M_PI * s / segments;
+            mitre.push_back(dvec3(1.0 - r * std::sin(th), r * std::sin(th), r * std::cos(th)));
+        }
+        rings.push_back(mitre);
+    }
+    for (int i = 0; i < 9; ++i) {  // along y: y in [r + 0.05, 1.3]
+        const double y = r + 0.05 + (1.3 - r - 0.05) * i / 8.0;
+        std::vector<dvec3> ring;
+        for (int s = 0; s < segments; ++s) {
+            const double th = 2.0 * M_PI * s / segments;
+            ring.push_back(dvec3(1.0 - r * std::sin(th), y, r * std::cos(th)));
+        }
+        rings.push_back(ring);
+    }
+    TubeMesh m;
+    m.add_tube(rings);
+    const Skeleton s = line_skeleton({dvec3(0, 0, 0), dvec3(1, 0, 0), dvec3(1, 1, 0)});
+    const fit::FitResult res = fit::fit_rig(tube_input(m, s, {{0, 1}}));
+    ASSERT_EQ(res.rig.sweeps.size(), 1u) << res.report;
+    const auto& keys = res.rig.sweeps[0].keys;
+    ASSERT_EQ(keys.size(), 7u);
+    const KeyEllipse& elbow = keys[3];
+    EXPECT_LT(glm::length(elbow.center - dvec3(1, 0, 0)), 1e-9);
+    EXPECT_LT(glm::length(elbow.normal() - glm::normalize(dvec3(1, 1, 0))), 1e-9);
+    // The polygon is inscribed in the ellipse: within 0.2 % of r√2 and r.
+    EXPECT_NEAR(std::max(elbow.a, elbow.b), r * std::sqrt(2.0), 2e-3 * r);
+    EXPECT_NEAR(std::min(elbow.a, elbow.b), r, 2e-3 * r);
+    for (int k : {1, 2, 4, 5}) {  // intermediate keys: circles on the axis
+        EXPECT_NEAR(keys[k].a, r, 2e-3 * r) << k;
+        EXPECT_NEAR(keys[k].b, r, 2e-3 * r) << k;
+    }
+    // Bind and deform: rest reproduces; a 90° bend keeps the tube finite and the far end
+    // rigid with the second bone.
+    const Binding binding = character_fit::bind_fitted(res, m.vertex_count(), m.positions.data());
+    Deformer d(res.rig, binding);
+    std::vector<float> out(m.positions.size());
+    d.deform(rest_pose(s).data(), out.data());
+    EXPECT_LE(max_distance(out, m.positions), 1e-6 * diagonal(m.positions));
+    const dmat4 bend = glm::translate(dmat4(1.0), dvec3(1, 0, 0)) * glm::rotate(dmat4(1.0), M_PI / 2, dvec3(0, 0, 1)) *
+                       glm::translate(dmat4(1.0), dvec3(-1, 0, 0));
+    std::vector<float> pose = rest_pose(s);
+    const dmat4 p1 = bend * s.rest[1];
+    for (int i = 0; i < 16; ++i) pose[16 + i] = static_cast<float>(p1[i / 4][i % 4]);
+    d.deform(pose.data(), out.data());
+    for (float x : out) ASSERT_TRUE(std::isfinite(x));
+    // The ring at y = 1.3 (near the far end) moved rigidly with bone 1, up to the sweep's
+    // smooth blending (a small fraction of the radius).
+    double worst = 0.0;
+    for (int v = 0; v < m.vertex_count(); ++v) {
+        const dvec3 p(m.positions[3 * v], m.positions[3 * v + 1], m.positions[3 * v + 2]);
+        if (p.y < 1.0) continue;
+        const dvec3 expect = dvec3(bend * dvec4(p, 1.0));
+        worst = std::max(worst, glm::length(dvec3(out[3 * v], out[3 * v + 1], out[3 * v + 2]) - expect));
+    }
+    EXPECT_LT(worst, 0.1 * r);
+}
+
+TEST(FitAnalytic, CutThroughTwoTubesReturnsTheLoopAroundTheBone) {
+    TubeMesh m;
+    m.add_tube(elliptic_rings(0.0, 1.0, 6, 32, 0.1, 0.08));
+    m.add_tube(elliptic_rings(0.0, 1.0, 6, 32, 0.1, 0.08, dvec3(0, 0.5, 0.1)));
+    const fit::FitMesh mesh(m.vertex_count(), m.positions.data(), m.triangle_count(), m.triangles.data());
+    EXPECT_EQ(mesh.stats().components, 2);
+    const dvec3 n(1, 0, 0);
+    for (const dvec3& bone : {dvec3(0.43, 0.0, 0.0), dvec3(0.43, 0.5, 0.1), dvec3(0.43, 0.52, 0.09)}) {
+        const auto loops = fit::cut_mesh(mesh, bone, n);
+        ASSERT_EQ(loops.size(), 2u);
+        const fit::PlaneFrame f(bone, n, dvec3(0, 1, 0));
+        std::vector<std::vector<dvec2>> polys(2);
+        for (int i = 0; i < 2; ++i)
+            for (const auto& p : loops[i].points) polys[i].push_back(f.to_plane(p.p));
+        const fit::LoopPick pick = fit::pick_loop(polys, dvec2(0.0), 0.01);
+        ASSERT_GE(pick.loop, 0);
+        EXPECT_TRUE(pick.contains);
+        const double tube_y = bone.y > 0.25 ? 0.5 : 0.0;
+        for (const auto& p : loops[pick.loop].points) EXPECT_NEAR(p.p.y, tube_y, 0.1 + 1e-6);
+    }
+    // A point between the tubes is in neither; beyond max_distance nothing is picked.
+    const auto loops = fit::cut_mesh(mesh, dvec3(0.43, 0.25, 0.05), n);
+    const fit::PlaneFrame f(dvec3(0.43, 0.25, 0.05), n, dvec3(0, 1, 0));
+    std::vector<std::vector<dvec2>> polys(loops.size());
+    for (size_t i = 0; i < loops.size(); ++i)
+        for (const auto& p : loops[i].points) polys[i].push_back(f.to_plane(p.p));
+    EXPECT_EQ(fit::pick_loop(polys, dvec2(0.0), 0.05).loop, -1);
+}
+
+TEST(FitAnalytic, BrokenMeshesAreReportedNotFatal) {
+    TubeMesh m;
+    m.add_tube(elliptic_rings(-0.2, 1.2, 15, 24, 0.1, 0.08));
+    // A fin glued onto one edge of the tube makes that edge non-manifold (3 faces).
+    const int a = m.triangles[0], b = m.triangles[2];
+    const int tip = m.add(dvec3(0.0, 0.3, 0.0));
+    m.triangles.insert(m.triangles.end(), {a, b, tip});
+    // A degenerate triangle and a loose triangle far away.
+    m.triangles.insert(m.triangles.end(), {a, a, b});
+    const int l0 = m.add(dvec3(0.5, 2, 0)), l1 = m.add(dvec3(0.6, 2, 0)), l2 = m.add(dvec3(0.5, 2.1, 0));
+    m.triangles.insert(m.triangles.end(), {l0, l1, l2});
+    // An open border: drop two quads of the tube's side.
+    m.triangles.erase(m.triangles.begin() + 6 * 24 * 7, m.triangles.begin() + 6 * 24 * 7 + 12);
+    const Skeleton s = line_skeleton({dvec3(0, 0, 0), dvec3(0.5, 0, 0), dvec3(1.0, 0, 0)});
+    const fit::FitResult r = fit::fit_rig(tube_input(m, s, {{0, 1}}));
+    EXPECT_EQ(r.mesh.nonmanifold_faces, 1);
+    EXPECT_EQ(r.mesh.degenerate_triangles, 1);
+    EXPECT_EQ(r.mesh.components, 2);
+    EXPECT_GT(r.mesh.boundary_edges, 0);
+    EXPECT_EQ(r.weights.vertices_bound, m.vertex_count());
+    EXPECT_NE(r.report.find("non-manifold"), std::string::npos);
+    ASSERT_EQ(r.rig.sweeps.size(), 1u);
+    for (const KeyEllipse& k : r.rig.sweeps[0].keys) {
+        EXPECT_NEAR(std::max(k.a, k.b), 0.1, 0.01);
+        EXPECT_NEAR(std::min(k.a, k.b), 0.08, 0.01);
+    }
+}
+
+TEST(FitAnalytic, ClearErrors) {
+    TubeMesh m;
+    m.add_tube(elliptic_rings(-0.2, 1.2, 5, 16, 0.1, 0.08));
+    const Skeleton s = line_skeleton({dvec3(0, 0, 0), dvec3(0.5, 0, 0), dvec3(1.0, 0, 0)});
+    const auto message = [&](fit::FitInput in) {
+        try {
+            fit::fit_rig(in);
+        } catch (const InvalidInput& e) {
+            return std::string(e.what());
+        }
+        return std::string("(no error)");
+    };
+    // Skeleton in metres, mesh in centimetres; and the other way round.
+    TubeMesh cm = m;
+    for (float& x : cm.positions) x *= 100.0f;
+    EXPECT_NE(message(tube_input(cm, s, {{0, 1}})).find("differ in scale"), std::string::npos);
+    TubeMesh small = m;
+    for (float& x : small.positions) x *= 0.01f;
+    EXPECT_NE(message(tube_input(small, s, {{0, 1}})).find("differ in scale"), std::string::npos);
+    // A skeleton elsewhere (object transforms not applied).
+    TubeMesh moved = m;
+    for (size_t i = 0; i < moved.positions.size(); i += 3) moved.positions[i + 2] += 5.0f;
+    EXPECT_NE(message(tube_input(moved, s, {{0, 1}})).find("bone heads lie within"), std::string::npos);
+    TubeMesh bad = m;
+    bad.triangles[7] = 9999;
+    EXPECT_NE(message(tube_input(bad, s, {{0, 1}})).find("triangle 2 refers to vertex 9999"), std::string::npos);
+    bad = m;
+    bad.positions[4] = std::nanf("");
+    EXPECT_NE(message(tube_input(bad, s, {{0, 1}})).find("mesh vertex 1"), std::string::npos);
+    EXPECT_NE(message(tube_input(m, s, {{0, 7}})).find("out of range"), std::string::npos);
+    EXPECT_NE(message(tube_input(m, s, {{1, 0}})).find("is not below"), std::string::npos);
+    EXPECT_NE(message(tube_input(m, s, {{0}, {0, 1}})).find("already in chain"), std::string::npos);
+    // No humanoid structure for the automatic chains.
+    EXPECT_NE(message(tube_input(m, s, {})).find("automatic chains"), std::string::npos);
+}
+
+TEST(FitAbi, ValidatesAndRoundTrips) {
+    TubeMesh m;
+    m.add_tube(elliptic_rings(-0.2, 1.2, 9, 24, 0.1, 0.08));
+    const Skeleton s = line_skeleton({dvec3(0, 0, 0), dvec3(0.5, 0, 0), dvec3(1.0, 0, 0)});
+    std::vector<float> rest = rest_pose(s), heads, tails;
+    for (int b = 0; b < 2; ++b)
+        for (int i = 0; i < 3; ++i) {
+            heads.push_back(static_cast<float>(s.heads[b][i]));
+            tails.push_back(static_cast<float>(s.tails[b][i]));
+        }
+    const int32_t parents[2] = {-1, 0}, offsets[2] = {0, 2}, bones[2] = {0, 1};
+    const char* names[2] = {"upper", nullptr};
+    const int V = m.vertex_count(), T = m.triangle_count();
+    sd_fit_result* res = nullptr;
+    // Bad input: an error code and a message, nothing allocated.
+    EXPECT_EQ(sd_fit_rig(V, m.positions.data(), T, m.triangles.data(), 2, parents, rest.data(), heads.data(),
+                         tails.data(), names, 0, nullptr, nullptr, 99, 1, offsets, bones, &res),
+              SD_ERR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(sd_last_error()).find("keys_per_link"), std::string::npos);
+    EXPECT_EQ(res, nullptr);
+    const int32_t bad_offsets[2] = {0, 3};
+    EXPECT_EQ(sd_fit_rig(V, m.positions.data(), T, m.triangles.data(), 2, parents, rest.data(), heads.data(),
+                         tails.data(), names, 0, nullptr, nullptr, 2, 1, bad_offsets, bones, &res),
+              SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(sd_fit_rig(V, nullptr, T, m.triangles.data(), 2, parents, rest.data(), heads.data(), tails.data(), names,
+                         0, nullptr, nullptr, 2, 1, offsets, bones, &res),
+              SD_ERR_INVALID_ARGUMENT);
+    const auto status_with = [&](std::vector<int32_t> tris, int32_t slots, const int32_t* sb, const float* sw,
+                                 const int32_t* chain_bones) {
+        sd_fit_result* out = nullptr;
+        const sd_status st = sd_fit_rig(V, m.positions.data(), T, tris.data(), 2, parents, rest.data(), heads.data(),
+                                        tails.data(), names, slots, sb, sw, 2, 1, offsets, chain_bones, &out);
+        sd_fit_result_destroy(out);
+        return st;
+    };
+    std::vector<int32_t> bad_tris = m.triangles;
+    bad_tris[4] = V;
+    EXPECT_EQ(status_with(bad_tris, 0, nullptr, nullptr, bones), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(sd_last_error()).find("triangle 1 refers to vertex"), std::string::npos) << sd_last_error();
+    std::vector<int32_t> skin_bones(V, 0);
+    std::vector<float> skin_weights(V, 1.0f);
+    skin_bones[5] = 2;
+    EXPECT_EQ(status_with(m.triangles, 1, skin_bones.data(), skin_weights.data(), bones), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(sd_last_error()).find("vertex 5: skin bone 2"), std::string::npos) << sd_last_error();
+    skin_bones[5] = 0;
+    skin_weights[6] = std::nanf("");
+    EXPECT_EQ(status_with(m.triangles, 1, skin_bones.data(), skin_weights.data(), bones), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(sd_last_error()).find("vertex 6"), std::string::npos) << sd_last_error();
+    EXPECT_EQ(status_with(m.triangles, 1, skin_bones.data(), nullptr, bones), SD_ERR_INVALID_ARGUMENT);
+    const int32_t bad_chain[2] = {0, 5};
+    EXPECT_EQ(status_with(m.triangles, 0, nullptr, nullptr, bad_chain), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_NE(std::string(sd_last_error()).find("out of range"), std::string::npos) << sd_last_error();
+    skin_weights[6] = 1.0f;
+    EXPECT_EQ(status_with(m.triangles, 1, skin_bones.data(), skin_weights.data(), bones), SD_OK) << sd_last_error();
+
+    // Good input.
+    ASSERT_EQ(sd_fit_rig(V, m.positions.data(), T, m.triangles.data(), 2, parents, rest.data(), heads.data(),
+                         tails.data(), names, 0, nullptr, nullptr, 2, 1, offsets, bones, &res),
+              SD_OK)
+        << sd_last_error();
+    ASSERT_NE(res, nullptr);
+    sd_rig* rig = nullptr;
+    ASSERT_EQ(sd_fit_result_rig(res, &rig), SD_OK);
+    EXPECT_EQ(sd_rig_sweep_count(rig), 1);
+    int32_t ss = 0, bs = 0;
+    ASSERT_EQ(sd_fit_result_slot_counts(res, &ss, &bs), SD_OK);
+    // One extra slot each: padded with -1.
+    std::vector<int32_t> sid(V * (ss + 1)), bid(V * (bs + 1));
+    std::vector<float> sw(sid.size()), bw(bid.size());
+    EXPECT_EQ(sd_fit_result_weights(res, V + 1, ss + 1, sid.data(), sw.data(), bs + 1, bid.data(), bw.data()),
+              SD_ERR_MISMATCH);
+    EXPECT_EQ(sd_fit_result_weights(res, V, ss - 1, sid.data(), sw.data(), bs + 1, bid.data(), bw.data()),
+              SD_ERR_INVALID_ARGUMENT);
+    ASSERT_EQ(sd_fit_result_weights(res, V, ss + 1, sid.data(), sw.data(), bs + 1, bid.data(), bw.data()), SD_OK);
+    EXPECT_EQ(sid[ss], -1);
+    sd_binding* binding = nullptr;
+    ASSERT_EQ(
+        sd_bind(rig, V, m.positions.data(), ss + 1, sid.data(), sw.data(), bs + 1, bid.data(), bw.data(), &binding),
+        SD_OK)
+        << sd_last_error();
+    sd_deformer* d = nullptr;
+    ASSERT_EQ(sd_deformer_create(rig, binding, &d), SD_OK);
+    std::vector<float> out(m.positions.size());
+    ASSERT_EQ(sd_deform(d, 2, rest.data(), V, out.data()), SD_OK);
+    EXPECT_LE(max_distance(out, m.positions), 1e-6 * diagonal(m.positions));
+    // The report: size query, then fill into the caller's buffer.
+    int64_t size = 0;
+    ASSERT_EQ(sd_fit_result_report(res, nullptr, 0, &size), SD_OK);
+    ASSERT_GT(size, 1);
+    std::vector<char> text(static_cast<size_t>(size), 'x');
+    ASSERT_EQ(sd_fit_result_report(res, text.data(), size, &size), SD_OK);
+    EXPECT_EQ(text.back(), '\0');
+    const std::string report(text.data());
+    EXPECT_EQ(report.size() + 1, static_cast<size_t>(size));
+    EXPECT_EQ(report.front(), '{');
+    EXPECT_NE(report.find("\"bone_names\":[\"upper\",\"\"]"), std::string::npos) << report;
+    std::vector<char> small(static_cast<size_t>(size - 1), 'x');
+    EXPECT_EQ(sd_fit_result_report(res, small.data(), size - 1, &size), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(small.front(), 'x') << "a buffer too small is not written";
+    EXPECT_EQ(sd_fit_result_report(nullptr, nullptr, 0, &size), SD_ERR_INVALID_ARGUMENT);
+    EXPECT_EQ(sd_fit_result_report(res, nullptr, 0, nullptr), SD_ERR_INVALID_ARGUMENT);
+    sd_deformer_destroy(d);
+    sd_binding_destroy(binding);
+    sd_rig_destroy(rig);
+    sd_fit_result_destroy(res);
+}
+
+// ---- real characters ------------------------------------------------------------------
+
+std::string data_file(const std::string& name) { return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name; }
+
+#define REQUIRE_DATA(path) \
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found: skipped"
+
+using character_fit::character_input;
+using character_fit::skeleton_of;
+
+/// Area of the mesh's cross-section in the plane (o, n) inside the disc of radius R about
+/// o, by Green's theorem over every triangle's cut segment, oriented by the triangle's
+/// outward normal — independent of the fitting's loop walking.
+double section_area(const io::Character& c, const dvec3& o, const dvec3& n, double R) {
+    double area = 0.0;
+    const auto P = [&](int v) { return dvec3(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]); };
+    for (size_t t = 0; t < c.triangles.size(); t += 3) {
+        const dvec3 p[3] = {P(c.triangles[t]), P(c.triangles[t + 1]), P(c.triangles[t + 2])};
+        double d[3];
+        for (int i = 0; i < 3; ++i) d[i] = glm::dot(p[i] - o, n);
+        std::vector<dvec3> cut;
+        for (int i = 0; i < 3; ++i) {
+            const int j = (i + 1) % 3;
+            if ((d[i] >= 0.0) != (d[j] >= 0.0)) cut.push_back(p[i] + d[i] / (d[i] - d[j]) * (p[j] - p[i]));
+        }
+        if (cut.size() != 2) continue;
+        if (glm::length(0.5 * (cut[0] + cut[1]) - o) > R) continue;
+        const dvec3 normal = glm::cross(p[1] - p[0], p[2] - p[0]);
+        dvec3 a = cut[0] - o, b = cut[1] - o;
+        if (glm::dot(glm::cross(n, normal), b - a) < 0.0) std::swap(a, b);
+        area += 0.5 * glm::dot(glm::cross(a, b), n);
+    }
+    return std::abs(area);
+}
+
+struct CharacterCase {
+    const char* file;
+    bool weld;
+    /// Expected chains: name -> bone names (links), end bone name.
+    std::map<std::string, std::pair<std::vector<std::string>, std::string>> chains;
+    std::string elbow_l, knee_l, elbow_r, knee_r;  ///< lower links of the joints
+};
+
+const CharacterCase kMakeHuman{"mh_male_game_engine.glb",
+                               false,
+                               {{"torso", {{"pelvis", "spine_01", "spine_02", "spine_03"}, "neck_01"}},
+                                {"neck", {{"neck_01"}, "head"}},
+                                {"arm_l", {{"clavicle_l", "upperarm_l", "lowerarm_l"}, "hand_l"}},
+                                {"arm_r", {{"clavicle_r", "upperarm_r", "lowerarm_r"}, "hand_r"}},
+                                {"leg_l", {{"thigh_l", "calf_l"}, "foot_l"}},
+                                {"leg_r", {{"thigh_r", "calf_r"}, "foot_r"}}},
+                               "lowerarm_l",
+                               "calf_l",
+                               "lowerarm_r",
+                               "calf_r"};
+
+CharacterCase make_human_subdiv() {
+    CharacterCase c = kMakeHuman;
+    c.file = "mh_male_game_engine_subdiv1.glb";
+    return c;
+}
+
+const CharacterCase kCesiumMan{
+    "CesiumMan.glb",
+    true,
+    {{"torso", {{"Skeleton_torso_joint_1", "Skeleton_torso_joint_2", "torso_joint_3"}, "Skeleton_neck_joint_1"}},
+     {"neck", {{"Skeleton_neck_joint_1"}, "Skeleton_neck_joint_2"}},
+     {"arm_l", {{"Skeleton_arm_joint_L__4_", "Skeleton_arm_joint_L__3_"}, "Skeleton_arm_joint_L__2_"}},
+     {"arm_r", {{"Skeleton_arm_joint_R", "Skeleton_arm_joint_R__2_"}, "Skeleton_arm_joint_R__3_"}},
+     {"leg_l", {{"leg_joint_L_1", "leg_joint_L_2"}, "leg_joint_L_3"}},
+     {"leg_r", {{"leg_joint_R_1", "leg_joint_R_2"}, "leg_joint_R_3"}}},
+    "Skeleton_arm_joint_L__3_",
+    "leg_joint_L_2",
+    "Skeleton_arm_joint_R__2_",
+    "leg_joint_R_2"};
+
+void PrintTo(const CharacterCase& c, std::ostream* os) { *os << c.file; }
+
+class FitCharacter : public ::testing::TestWithParam<CharacterCase> {};
+
+int bone_index(const io::Character& c, const std::string& name) {
+    for (size_t b = 0; b < c.bone_names.size(); ++b)
+        if (c.bone_names[b] == name) return static_cast<int>(b);
+    return -1;
+}
+
+/// Posed bone matrices with the subtree of `bone` turned by `angle` about `axis` through
+/// the bone's head.
+std::vector<float> bend_pose(const io::Character& c, const Skeleton& s, int bone, const dvec3& axis, double angle) {
+    const dvec3 joint = s.heads[bone];
+    const dmat4 turn =
+        glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), angle, axis) * glm::translate(dmat4(1.0), -joint);
+    std::vector<float> pose = io::rest_pose(c);
+    for (int b = 0; b < s.bone_count(); ++b) {
+        bool below = false;
+        for (int x = b; x >= 0 && !below; x = s.parents[x]) below = x == bone;
+        if (!below) continue;
+        const dmat4 p = turn * s.rest[b];
+        for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(p[i / 4][i % 4]);
+    }
+    return pose;
+}
+
+/// Fits `c`, then checks its chains against `cc`, coverage, the rest round trip, the elbow
+/// and knee key areas, and (if `bends`) 90° bends of the left elbow and knee.
+void check_character(const io::Character& c, const CharacterCase& cc, const std::string& label, bool bends) {
+    const Skeleton s = skeleton_of(c);
+    const int V = static_cast<int>(c.positions.size() / 3);
+    const auto t0 = std::chrono::steady_clock::now();
+    const fit::FitResult r = fit::fit_rig(character_input(c, s));
+    const auto t1 = std::chrono::steady_clock::now();
+    const Binding binding = character_fit::bind_fitted(r, V, c.positions.data());
+    const auto t2 = std::chrono::steady_clock::now();
+    std::printf("%s: %d vertices; fit %.0f ms + bind %.0f ms\n", label.c_str(), V,
+                std::chrono::duration<double, std::milli>(t1 - t0).count(),
+                std::chrono::duration<double, std::milli>(t2 - t1).count());
+    for (const std::string& w : r.warnings) std::printf("  warning: %s\n", w.c_str());
+    if (const char* dir = std::getenv("SD_FIT_REPORT_DIR")) {  // for inspection and pictures
+        std::FILE* f = std::fopen((std::string(dir) + "/" + label + ".json").c_str(), "w");
+        if (f) {
+            std::fputs(r.report.c_str(), f);
+            std::fclose(f);
+        }
+    }
+
+    // Chains.
+    ASSERT_EQ(r.chains.chains.size(), cc.chains.size()) << r.report;
+    for (size_t i = 0; i < r.chains.chains.size(); ++i) {
+        const fit::Chain& ch = r.chains.chains[i];
+        const auto it = cc.chains.find(ch.name);
+        ASSERT_NE(it, cc.chains.end()) << "unexpected chain " << ch.name;
+        std::vector<std::string> names;
+        for (int b : ch.bones) names.push_back(c.bone_names[b]);
+        EXPECT_EQ(names, it->second.first) << ch.name;
+        EXPECT_EQ(ch.end_bone >= 0 ? c.bone_names[ch.end_bone] : "", it->second.second) << ch.name;
+        EXPECT_GE(r.chain_sweep[i], 0) << ch.name << ": " << r.fits[i].error;
+    }
+    EXPECT_TRUE(r.chains.frame.sides_known);
+
+    // Coverage and the rest round trip.
+    const double bound = static_cast<double>(r.weights.vertices_bound) / V;
+    std::printf("  bound %.2f %% (on sweeps %d, blended %d, rigid only %d)\n", 100.0 * bound,
+                r.weights.vertices_on_sweeps, r.weights.vertices_blended, r.weights.vertices_rigid_only);
+    EXPECT_GE(bound, 0.99);
+    Deformer d(r.rig, binding);
+    std::vector<float> out(c.positions.size());
+    d.deform(io::rest_pose(c).data(), out.data());
+    const double diag = diagonal(c.positions);
+    const double rest_error = max_distance(out, c.positions);
+    std::printf("  rest round trip %.3g x diagonal\n", rest_error / diag);
+    EXPECT_LE(rest_error, 1e-6 * diag);
+
+    // Elbow and knee keys against the true cross-section area in their plane.
+    for (const std::string& lower : {cc.elbow_l, cc.elbow_r, cc.knee_l, cc.knee_r}) {
+        const int bone = bone_index(c, lower);
+        ASSERT_GE(bone, 0) << lower;
+        bool found = false;
+        for (size_t i = 0; i < r.chains.chains.size(); ++i) {
+            if (r.chain_sweep[i] < 0) continue;
+            for (const KeyEllipse& k : r.rig.sweeps[r.chain_sweep[i]].keys) {
+                if (k.bone != bone || !k.is_joint_key()) continue;
+                found = true;
+                const double truth = section_area(c, k.center, k.normal(), 1.8 * std::max(k.a, k.b));
+                const double ellipse = M_PI * k.a * k.b;
+                std::printf("  %s key: ellipse area %.4g, section %.4g, error %+.1f %%\n", lower.c_str(), ellipse,
+                            truth, 100.0 * (ellipse / truth - 1.0));
+                EXPECT_NEAR(ellipse / truth, 1.0, 0.10) << lower;
+            }
+        }
+        EXPECT_TRUE(found) << "no joint key on " << lower;
+    }
+
+    if (!bends) return;
+    // 90° bends of the left elbow and knee through the skeleton.
+    const dvec3 left = r.chains.frame.left;
+    for (const std::string& lower : {cc.elbow_l, cc.knee_l}) {
+        const int bone = bone_index(c, lower);
+        const int upper = s.parents[bone];
+        const dvec3 u = glm::normalize(s.tails[upper] - s.heads[upper]),
+                    f = glm::normalize(s.tails[bone] - s.heads[bone]);
+        const dvec3 cr = glm::cross(u, f);
+        // Flex: turn the lower link away from the upper one (a knee about the body's left axis).
+        const dvec3 axis = lower == cc.knee_l || glm::length(cr) < 0.2 ? left : glm::normalize(cr);
+        const auto pose = bend_pose(c, s, bone, axis, M_PI / 2);
+        d.deform(pose.data(), out.data());
+        const dvec3 joint = s.heads[bone];
+        const dmat4 turn = glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), M_PI / 2, axis) *
+                           glm::translate(dmat4(1.0), -joint);
+        // Vertices fully on bones below the joint (the hand, the foot) move exactly with
+        // them; every vertex stays finite and within the reach of the turn.
+        double reach = 0.0, rigid_error = 0.0, worst_move = 0.0;
+        int rigid_count = 0;
+        for (int v = 0; v < V; ++v) {
+            const dvec3 p(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
+            const dvec3 q(out[3 * v], out[3 * v + 1], out[3 * v + 2]);
+            ASSERT_TRUE(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z));
+            worst_move = std::max(worst_move, glm::length(q - p));
+            bool below = false;
+            for (int i = 0; i < 4; ++i) {
+                const int b = c.skin_joints[4 * v + i];
+                if (c.skin_weights[4 * v + i] <= 0.0f) continue;
+                bool is_below = false;
+                for (int x = b; x >= 0 && !is_below; x = s.parents[x]) is_below = x == bone;
+                below = below || is_below;
+            }
+            if (below) reach = std::max(reach, glm::length(p - joint));
+            const float* bw = &r.weights.bone_weights[static_cast<size_t>(v) * r.weights.bone_slots];
+            const int32_t* bi = &r.weights.bone_ids[static_cast<size_t>(v) * r.weights.bone_slots];
+            // Entirely bone-driven by bones below the joint: moves exactly with them.
+            bool rigid_below = bi[0] >= 0;
+            for (int i = 0; i < r.weights.sweep_slots; ++i)
+                rigid_below =
+                    rigid_below && r.weights.sweep_ids[static_cast<size_t>(v) * r.weights.sweep_slots + i] < 0;
+            for (int i = 0; i < r.weights.bone_slots && rigid_below; ++i) {
+                if (bi[i] < 0 || bw[i] <= 0.0f) continue;
+                bool is_below = false;
+                for (int x = bi[i]; x >= 0 && !is_below; x = s.parents[x]) is_below = x == bone;
+                rigid_below = is_below;
+            }
+            if (rigid_below) {
+                rigid_error = std::max(rigid_error, glm::length(q - dvec3(turn * dvec4(p, 1.0))));
+                ++rigid_count;
+            }
+        }
+        std::printf("  %s bent 90 deg: largest move %.3g (reach %.3g), %d rigid vertices below, error %.2g\n",
+                    lower.c_str(), worst_move, reach, rigid_count, rigid_error);
+        EXPECT_GT(rigid_count, 0);
+        EXPECT_LT(rigid_error, 1e-4 * diag);
+        EXPECT_LT(worst_move, 1.5 * std::sqrt(2.0) * reach);
+    }
+}
+
+TEST_P(FitCharacter, ChainsKeysBindingAndBends) {
+    const CharacterCase& cc = GetParam();
+    const std::string path = data_file(cc.file);
+    REQUIRE_DATA(path);
+    io::GltfLoadOptions load;
+    load.weld = cc.weld;
+    check_character(io::load_gltf_character(path, load), cc, cc.file, true);
+}
+
+/// The same MakeHuman in the forms a user may bring: glTF's Y-up axes, centimetres, and a
+/// T-pose (its arms raised by its own skinning, the raised skeleton taken as the rest).
+TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
+    const std::string path = data_file(kMakeHuman.file);
+    REQUIRE_DATA(path);
+    io::GltfLoadOptions y_up;
+    y_up.to_blender_axes = false;
+    check_character(io::load_gltf_character(path, y_up), kMakeHuman, "makehuman_y_up", false);
+
+    io::Character cm = io::load_gltf_character(path);
+    for (float& x : cm.positions) x *= 100.0f;
+    for (float& x : cm.bone_heads) x *= 100.0f;
+    for (float& x : cm.bone_tails) x *= 100.0f;
+    for (size_t b = 0; b < cm.bone_names.size(); ++b)
+        for (int i = 12; i < 15; ++i) cm.bone_rest[16 * b + i] *= 100.0f;
+    check_character(cm, kMakeHuman, "makehuman_centimetres", true);
+
+    io::Character t = io::load_gltf_character(path);
+    const Skeleton s = skeleton_of(t);
+    std::vector<float> pose = io::rest_pose(t);
+    for (const char* name : {"upperarm_l", "upperarm_r"}) {
+        const int bone = bone_index(t, name);
+        const dvec3 d = glm::normalize(s.tails[bone] - s.heads[bone]);
+        const dvec3 target = glm::normalize(dvec3(d.x, 0.0, 0.0));  // straight out sideways
+        const dvec3 axis = glm::normalize(glm::cross(d, target));
+        const double angle = std::acos(std::clamp(glm::dot(d, target), -1.0, 1.0));
+        const auto raised = bend_pose(t, s, bone, axis, angle);
+        for (int b = 0; b < s.bone_count(); ++b)
+            for (int x = b; x >= 0; x = s.parents[x])
+                if (x == bone) {
+                    std::copy(raised.begin() + 16 * b, raised.begin() + 16 * b + 16, pose.begin() + 16 * b);
+                    break;
+                }
+    }
+    SkeletonPose sp;
+    sp.set(s, pose.data());
+    std::vector<float> moved(t.positions.size());
+    const int V = static_cast<int>(t.positions.size() / 3);
+    skin_linear_blend4(bone_affines(sp), V, t.positions.data(), t.skin_joints.data(), t.skin_weights.data(),
+                       moved.data());
+    t.positions = moved;
+    t.bone_rest = pose;
+    for (int b = 0; b < s.bone_count(); ++b) {
+        const dvec3 h = dvec3(sp.deform[b] * dvec4(s.heads[b], 1.0)), tl = dvec3(sp.deform[b] * dvec4(s.tails[b], 1.0));
+        for (int i = 0; i < 3; ++i) {
+            t.bone_heads[3 * b + i] = static_cast<float>(h[i]);
+            t.bone_tails[3 * b + i] = static_cast<float>(tl[i]);
+        }
+    }
+    check_character(t, kMakeHuman, "makehuman_t_pose", true);
+}
+
+INSTANTIATE_TEST_SUITE_P(Humans, FitCharacter, ::testing::Values(kMakeHuman, make_human_subdiv(), kCesiumMan),
+                         [](const ::testing::TestParamInfo<CharacterCase>& info) {
+                             std::string n = info.param.file;
+                             for (char& ch : n)
+                                 if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                             return n;
+                         });
+
+TEST(FitCharacterGeometry, MakeHumanWithoutSkinWeights) {
+    const std::string path = data_file("mh_male_game_engine.glb");
+    REQUIRE_DATA(path);
+    const io::Character c = io::load_gltf_character(path);
+    const Skeleton s = skeleton_of(c);
+    fit::FitInput in = character_input(c, s);
+    in.skin_slots = 0;
+    in.skin_bones = nullptr;
+    in.skin_weights = nullptr;
+    const fit::FitResult r = fit::fit_rig(in);
+    EXPECT_EQ(r.chains.chains.size(), 6u);
+    EXPECT_EQ(r.rig.sweeps.size(), 6u) << r.report;
+    const int V = static_cast<int>(c.positions.size() / 3);
+    EXPECT_GE(r.weights.vertices_bound, V * 99 / 100);
+    const Binding binding = character_fit::bind_fitted(r, V, c.positions.data());
+    Deformer d(r.rig, binding);
+    std::vector<float> out(c.positions.size());
+    d.deform(io::rest_pose(c).data(), out.data());
+    EXPECT_LE(max_distance(out, c.positions), 1e-6 * diagonal(c.positions));
+    std::printf("geometry-only regions: on sweeps %d, blended %d, rigid only %d\n", r.weights.vertices_on_sweeps,
+                r.weights.vertices_blended, r.weights.vertices_rigid_only);
+}
+
+/// The fitted rig through motion-capture poses of the same skeleton: close to linear blend
+/// skinning on average (same skeleton, same skin), nothing explodes. With and without skin
+/// weights (then the regions come from geometry).
+class FitMotion : public ::testing::TestWithParam<bool> {};
+
+TEST_P(FitMotion, MocapPosesStayCloseToSkinning) {
+    const bool skinned = GetParam();
+    const std::string path = data_file("mh_male_game_engine_anims.glb");
+    REQUIRE_DATA(path);
+    const io::Character c = io::load_gltf_character(path);
+    const Skeleton s = skeleton_of(c);
+    fit::FitInput in = character_input(c, s);
+    if (!skinned) {
+        in.skin_slots = 0;
+        in.skin_bones = nullptr;
+        in.skin_weights = nullptr;
+    }
+    const fit::FitResult r = fit::fit_rig(in);
+    ASSERT_EQ(r.rig.sweeps.size(), 6u) << r.report;
+    const int V = static_cast<int>(c.positions.size() / 3);
+    Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
+    const double diag = diagonal(c.positions);
+    std::vector<float> out(c.positions.size()), lbs(c.positions.size());
+    double worst_mean = 0.0, worst_max = 0.0;
+    for (size_t clip = 0; clip < c.animations.size(); ++clip)
+        for (double t : {0.5, 2.0, 4.0}) {
+            const auto pose = io::sample_pose(c, static_cast<int>(clip), t);
+            d.deform(pose.data(), out.data());
+            SkeletonPose sp;
+            sp.set(s, pose.data());
+            skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
+                               lbs.data());
+            double mean = 0.0, max = 0.0;
+            for (int v = 0; v < V; ++v) {
+                const double e = glm::length(
+                    dvec3(out[3 * v] - lbs[3 * v], out[3 * v + 1] - lbs[3 * v + 1], out[3 * v + 2] - lbs[3 * v + 2]));
+                ASSERT_TRUE(std::isfinite(e));
+                mean += e / V;
+                max = std::max(max, e);
+            }
+            worst_mean = std::max(worst_mean, mean / diag);
+            worst_max = std::max(worst_max, max / diag);
+            EXPECT_LT(mean, (skinned ? 0.01 : 0.02) * diag) << c.animations[clip].name << " t=" << t;
+            EXPECT_LT(max, 0.1 * diag) << c.animations[clip].name << " t=" << t;
+        }
+    std::printf("%s: distance to linear blend skinning over mocap poses: mean <= %.3g, max <= %.3g x diagonal\n",
+                skinned ? "skin-weight regions" : "geometric regions", worst_mean, worst_max);
+}
+
+INSTANTIATE_TEST_SUITE_P(Regions, FitMotion, ::testing::Values(true, false),
+                         [](const ::testing::TestParamInfo<bool>& info) {
+                             return std::string(info.param ? "SkinWeights" : "Geometry");
+                         });
+
+TEST(FitCharacterTiming, RefinedMakeHumanFitPlusBind) {
+    const std::string path = data_file("mh_male_game_engine.glb");
+    REQUIRE_DATA(path);
+    const io::Character c = io::refine_catmull_clark(io::load_gltf_character(path), 1);
+    const Skeleton s = skeleton_of(c);
+    const int V = static_cast<int>(c.positions.size() / 3);
+    const auto t0 = std::chrono::steady_clock::now();
+    const fit::FitResult r = fit::fit_rig(character_input(c, s));
+    const auto t1 = std::chrono::steady_clock::now();
+    const Binding binding = character_fit::bind_fitted(r, V, c.positions.data());
+    const auto t2 = std::chrono::steady_clock::now();
+    const double fit_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+    const double bind_ms = std::chrono::duration<double, std::milli>(t2 - t1).count();
+    std::printf("refined MakeHuman, %d vertices: fit %.0f ms + bind %.0f ms = %.0f ms (target <= 2000 ms)\n", V, fit_ms,
+                bind_ms, fit_ms + bind_ms);
+    EXPECT_EQ(r.rig.sweeps.size(), 6u);
+    EXPECT_GE(r.weights.vertices_bound, V * 99 / 100);
+    EXPECT_EQ(binding.vertex_count(), V);
+}
+
+}  // namespace
+}  // namespace sd

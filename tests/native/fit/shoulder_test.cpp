@@ -1,0 +1,242 @@
+// The shoulder (Sect. 3.5, Fig. 6): raising the arms must not drag the chest and back with
+// the arm sweeps. A vertex of the trunk that no bone of the arm itself (upper arm and below)
+// moves — skin on the spine, the neck or the clavicle — stays where linear blend skinning
+// puts it, and the trunk's skin stays smooth (no fold where arm-bound skin swings up while
+// the skin above stays with the torso).
+#include "character_fit.h"
+#include "bind/bind.h"
+#include "deform/deform.h"
+#include "fit/fit_rig.h"
+#include "deform/linear_blend_skinning.h"
+#include "measure/measure.h"
+
+#include <sweepdeform_io/animation.h>
+#include <sweepdeform_io/gltf_loader.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+
+namespace sd {
+namespace {
+
+std::string data_file(const std::string& name) { return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name; }
+
+using character_fit::character_input;
+using character_fit::skeleton_of;
+
+bool below(const Skeleton& s, int b, int root) {
+    for (int x = b; x >= 0; x = s.parents[x])
+        if (x == root) return true;
+    return false;
+}
+
+/// Turns the subtree of `bone` by `angle` about `axis` through the bone's head, on top of `pose`.
+void turn_subtree(const Skeleton& s, std::vector<float>& pose, int bone, const dvec3& axis, double angle) {
+    const auto get = [&](int b) {
+        dmat4 m;
+        for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = pose[16 * b + i];
+        return m;
+    };
+    const dvec3 joint = dvec3(get(bone) * s.rest_inverse[bone] * dvec4(s.heads[bone], 1.0));
+    const dmat4 turn =
+        glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), angle, axis) * glm::translate(dmat4(1.0), -joint);
+    for (int b = 0; b < s.bone_count(); ++b) {
+        if (!below(s, b, bone)) continue;
+        const dmat4 p = turn * get(b);
+        for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(p[i / 4][i % 4]);
+    }
+}
+
+struct Figures {
+    double trunk_max = 0.0;  ///< largest distance to linear blend skinning, trunk vertices
+    double trunk_mean = 0.0;
+    double dihedral_max = 0.0;  ///< largest change of a trunk edge's dihedral angle (radians)
+    double dihedral_lbs = 0.0;  ///< the same with linear blend skinning
+    int trunk = 0;
+    double shoulder_width = 0.0;                          ///< distance between the shoulder joints
+    double band_dihedral = 0.0, band_dihedral_lbs = 0.0;  ///< the same where the arm weighs < 0.5
+    int64_t shoulder_pairs = 0, shoulder_pairs_lbs = 0;   ///< intersecting triangle pairs
+};
+
+/// Dihedral angle change of every interior edge whose four vertices are all in `mask`.
+double max_dihedral_change(const io::Character& c, const std::vector<float>& pos, const std::vector<char>& mask) {
+    std::map<std::pair<int, int>, std::vector<int>> edge_tris;
+    const int T = static_cast<int>(c.triangles.size() / 3);
+    for (int t = 0; t < T; ++t)
+        for (int i = 0; i < 3; ++i) {
+            int a = c.triangles[3 * t + i], b = c.triangles[3 * t + (i + 1) % 3];
+            if (a > b) std::swap(a, b);
+            edge_tris[{a, b}].push_back(t);
+        }
+    const auto P = [](const std::vector<float>& p, int v) { return dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); };
+    const auto normal = [&](const std::vector<float>& p, int t) {
+        const dvec3 n = glm::cross(P(p, c.triangles[3 * t + 1]) - P(p, c.triangles[3 * t]),
+                                   P(p, c.triangles[3 * t + 2]) - P(p, c.triangles[3 * t]));
+        const double l = glm::length(n);
+        return l > 0.0 ? n / l : n;
+    };
+    const auto angle = [](const dvec3& u, const dvec3& v) {
+        return std::atan2(glm::length(glm::cross(u, v)), glm::dot(u, v));
+    };
+    double worst = 0.0;
+    for (const auto& [e, tris] : edge_tris) {
+        if (tris.size() != 2) continue;
+        bool in = true;
+        for (int t : tris)
+            for (int i = 0; i < 3; ++i) in = in && mask[c.triangles[3 * t + i]];
+        if (!in) continue;
+        const double rest = angle(normal(c.positions, tris[0]), normal(c.positions, tris[1]));
+        const double posed = angle(normal(pos, tris[0]), normal(pos, tris[1]));
+        worst = std::max(worst, std::abs(posed - rest));
+    }
+    return worst;
+}
+
+void write_obj(const std::string& path, const io::Character& c, const std::vector<float>& pos) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    if (!f) return;
+    for (size_t i = 0; i < pos.size(); i += 3) std::fprintf(f, "v %.6f %.6f %.6f\n", pos[i], pos[i + 1], pos[i + 2]);
+    for (size_t t = 0; t < c.triangles.size(); t += 3)
+        std::fprintf(f, "f %d %d %d\n", c.triangles[t] + 1, c.triangles[t + 1] + 1, c.triangles[t + 2] + 1);
+    std::fclose(f);
+}
+
+/// Fits, binds and poses `c` with both arms raised; returns the figures.
+Figures raise_arms(const io::Character& c, const std::string& label, double degrees, double clavicle_degrees) {
+    const Skeleton s = skeleton_of(c);
+    const int V = static_cast<int>(c.positions.size() / 3);
+    const fit::FitResult r = fit::fit_rig(character_input(c, s));
+    const fit::RegionWeights& w = r.weights;
+    Deformer d(r.rig, bind_vertices(r.rig, V, c.positions.data(), w.sweep_slots, w.sweep_ids.data(),
+                                    w.sweep_weights.data(), w.bone_slots, w.bone_ids.data(), w.bone_weights.data()));
+    // Arm bones proper: the first swept link of every arm chain and everything below it.
+    std::vector<int> arm_roots, clavicles;
+    for (const fit::Chain& ch : r.chains.chains)
+        if (ch.kind == fit::ChainKind::Arm) {
+            arm_roots.push_back(ch.bones[ch.first_swept]);
+            if (ch.first_swept > 0) clavicles.push_back(ch.bones[ch.first_swept - 1]);
+        }
+    EXPECT_EQ(arm_roots.size(), 2u);
+    std::vector<float> pose = io::rest_pose(c);
+    {
+        const dvec3 up = r.chains.frame.up, fwd = r.chains.frame.forward;
+        for (int clav : clavicles) {  // a small shrug: the clavicle's tip up
+            const dvec3 dir = glm::normalize(s.tails[clav] - s.heads[clav]);
+            const dvec3 axis = glm::normalize(glm::cross(dir, up));
+            turn_subtree(s, pose, clav, axis, glm::radians(clavicle_degrees));
+        }
+        for (int arm : arm_roots) {  // the upper arm up, in the body's frontal plane
+            const dvec3 dir = glm::normalize(s.tails[arm] - s.heads[arm]);
+            const dvec3 side = glm::normalize(dir - glm::dot(dir, fwd) * fwd);
+            const dvec3 axis = glm::normalize(glm::cross(side, up));
+            turn_subtree(s, pose, arm, axis, glm::radians(degrees));
+        }
+    }
+    std::vector<float> out(c.positions.size()), lbs(c.positions.size());
+    d.deform(pose.data(), out.data());
+    SkeletonPose sp;
+    sp.set(s, pose.data());
+    skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
+                       lbs.data());
+    // The upper body (above 40 % of the way from the hips to the shoulders): the trunk has no
+    // weight on the arm proper, the shoulder band less than half.
+    double shoulder_z = 0.0, hip_z = 1e30;
+    const dvec3 up = r.chains.frame.up;
+    for (int arm : arm_roots) shoulder_z += glm::dot(s.heads[arm], up) / arm_roots.size();
+    for (const fit::Chain& ch : r.chains.chains)
+        if (ch.kind == fit::ChainKind::Leg) hip_z = std::min(hip_z, glm::dot(s.heads[ch.bones[0]], up));
+    std::vector<char> trunk(V, 0), band(V, 0);
+    Figures f;
+    if (arm_roots.size() == 2) f.shoulder_width = glm::length(s.heads[arm_roots[0]] - s.heads[arm_roots[1]]);
+    for (int v = 0; v < V; ++v) {
+        double arm_weight = 0.0;
+        for (int i = 0; i < 4; ++i)
+            for (int a : arm_roots)
+                if (below(s, c.skin_joints[4 * v + i], a)) arm_weight += c.skin_weights[4 * v + i];
+        const dvec3 p(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
+        const bool upper = glm::dot(p, up) > hip_z + 0.4 * (shoulder_z - hip_z);
+        band[v] = upper && arm_weight < 0.5;
+        trunk[v] = upper && arm_weight < 0.02;
+        if (!trunk[v]) continue;
+        ++f.trunk;
+        const double e = glm::length(
+            dvec3(out[3 * v] - lbs[3 * v], out[3 * v + 1] - lbs[3 * v + 1], out[3 * v + 2] - lbs[3 * v + 2]));
+        f.trunk_max = std::max(f.trunk_max, e);
+        f.trunk_mean += e;
+    }
+    f.trunk_mean /= std::max(1, f.trunk);
+    f.dihedral_max = max_dihedral_change(c, out, trunk);
+    f.dihedral_lbs = max_dihedral_change(c, lbs, trunk);
+    f.band_dihedral = max_dihedral_change(c, out, band);
+    f.band_dihedral_lbs = max_dihedral_change(c, lbs, band);
+    // Intersecting triangle pairs near the shoulder joints (as the demo counts them).
+    std::vector<int32_t> near;
+    const int T = static_cast<int>(c.triangles.size() / 3);
+    for (int t = 0; t < T; ++t) {
+        dvec3 m(0.0);
+        for (int i = 0; i < 3; ++i) {
+            const int x = c.triangles[3 * t + i];
+            m += dvec3(c.positions[3 * x], c.positions[3 * x + 1], c.positions[3 * x + 2]) / 3.0;
+        }
+        for (int a : arm_roots)
+            if (glm::length(m - s.heads[a]) < 0.44 * glm::length(s.tails[a] - s.heads[a])) {
+                near.push_back(t);
+                break;
+            }
+    }
+    f.shoulder_pairs = measure::intersecting_pairs(V, out.data(), T, c.triangles.data(), near);
+    f.shoulder_pairs_lbs = measure::intersecting_pairs(V, lbs.data(), T, c.triangles.data(), near);
+    std::printf(
+        "%s, arms up %.0f deg: %d trunk vertices, distance to skinning max %.3g (%.1f %% of the shoulder "
+        "width) mean %.3g; largest dihedral change: trunk %.1f deg (skinning %.1f), shoulder band "
+        "%.1f deg (skinning %.1f); intersecting pairs near the shoulders %lld (skinning %lld)\n",
+        label.c_str(), degrees, f.trunk, f.trunk_max, 100.0 * f.trunk_max / f.shoulder_width, f.trunk_mean,
+        glm::degrees(f.dihedral_max), glm::degrees(f.dihedral_lbs), glm::degrees(f.band_dihedral),
+        glm::degrees(f.band_dihedral_lbs), static_cast<long long>(f.shoulder_pairs),
+        static_cast<long long>(f.shoulder_pairs_lbs));
+    if (const char* dir = std::getenv("SD_SHOULDER_DUMP")) {
+        write_obj(std::string(dir) + "/" + label + "_sweep.obj", c, out);
+        write_obj(std::string(dir) + "/" + label + "_lbs.obj", c, lbs);
+    }
+    return f;
+}
+
+/// Checks the figures of one character with its arms raised 110 degrees (and its clavicles
+/// 12, as the demo's arms_up pose does).
+void check_raised_arms(const io::Character& c, const std::string& label) {
+    const Figures f = raise_arms(c, label, 110.0, 12.0);
+    EXPECT_GT(f.trunk, 400);
+    // The trunk stays with the torso and the clavicles: a few percent of the shoulder width
+    // from linear blend skinning. Before inner links kept their skin weight, MakeHuman's chest
+    // moved 3.9 cm (10 % of its shoulder width) with the arm sweeps; now 1.1 cm.
+    EXPECT_LT(f.trunk_max, 0.05 * f.shoulder_width) << label;
+    // No fold: the trunk's skin bends about as much as with skinning (MakeHuman: 18.7 degrees
+    // before, 9.6 now, skinning 8.6), and the band where the arm weighs less than half has
+    // no sharp crease (40.9 degrees before inner links kept their weight, 21.1 before the skin
+    // was handed over to the upper arm beyond the arm's first plane, 27.0 now, skinning 45.4).
+    EXPECT_LT(f.dihedral_max, f.dihedral_lbs + glm::radians(5.0)) << label;
+    EXPECT_LT(f.band_dihedral, glm::radians(30.0)) << label;
+    EXPECT_LE(f.shoulder_pairs, f.shoulder_pairs_lbs) << label;
+}
+
+TEST(Shoulder, RaisedArmsLeaveTheTrunkToTheTorso) {
+    const std::string path = data_file("mh_male_game_engine.glb");
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found: skipped";
+    check_raised_arms(io::load_gltf_character(path), "makehuman");
+    // Any other glTF character, e.g. the built-in one exported from Blender (welded).
+    if (const char* other = std::getenv("SD_SHOULDER_GLB")) {
+        io::GltfLoadOptions load;
+        load.weld = true;
+        check_raised_arms(io::load_gltf_character(other, load), "given");
+    }
+}
+
+}  // namespace
+}  // namespace sd
