@@ -2,6 +2,8 @@
 
 #include "key_pose.h"
 
+#include <tbb/task_arena.h>
+
 namespace sd {
 
 Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(std::move(binding)) {
@@ -21,6 +23,7 @@ Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(st
 }
 
 void Deformer::set_volume_preservation(bool enabled, double strength) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
     if (!(strength >= 0.0 && strength <= 1.0))
         throw InvalidInput("volume preservation strength must be in [0, 1]");
     volume_enabled_ = enabled;
@@ -28,6 +31,7 @@ void Deformer::set_volume_preservation(bool enabled, double strength) {
 }
 
 void Deformer::set_volume_offsets(const std::vector<double>& offsets) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
     if (offsets.size() != rig_.sweeps.size())
         throw InvalidInput("one volume offset per sweep is needed");
     for (size_t s = 0; s < offsets.size(); ++s) {
@@ -106,11 +110,15 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
 }
 
 void Deformer::deform(const float* pose, float* out) {
-    pose_.set(rig_.skeleton, pose);
-    prepare_sweeps(pose_);
-    bones_ = bone_affines(pose_);
-
-    kernel_.run(half_spans_.data(), bones_.data(), binding_, out);
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
+    // Isolated: while this thread waits for the kernel's tasks it must not pick up an outer
+    // task that could enter this deformer again (the lock is recursive, the scratch is not).
+    tbb::this_task_arena::isolate([&] {
+        pose_.set(rig_.skeleton, pose);
+        prepare_sweeps(pose_);
+        bones_ = bone_affines(pose_);
+        kernel_.run(half_spans_.data(), bones_.data(), binding_, out);
+    });
 }
 
 }  // namespace sd

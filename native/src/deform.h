@@ -8,10 +8,16 @@
 #include "rig.h"
 #include "sweep_kernel.h"
 
+#include <mutex>
 #include <vector>
 
 namespace sd {
 
+/// Thread safety: every member that reads or writes the per-frame state (deform, the
+/// setters) holds the deformer's lock, so two threads may call them on the same deformer at
+/// once (a render and the viewport): the calls run one after the other, each with the
+/// settings it was given. A caller that must keep several calls together (set offsets, then
+/// deform) holds lock() around them; the lock is recursive.
 class Deformer {
 public:
     /// @throws InvalidInput if the binding does not fit the rig.
@@ -22,7 +28,13 @@ public:
     void set_volume_offsets(const std::vector<double>& offsets);
     /// Replaces the key-ellipse corrections (Sect. 4.2) of the deformer's rig; the binding
     /// stays valid (it was made against the uncorrected rest sweeps). @throws InvalidInput
-    void set_corrections(const std::vector<CorrectionRecord>& records) { rig_.set_corrections(records); }
+    void set_corrections(const std::vector<CorrectionRecord>& records) {
+        const std::lock_guard<std::recursive_mutex> guard(mutex_);
+        rig_.set_corrections(records);
+    }
+
+    /// Holds the deformer for a sequence of calls (see the class comment).
+    std::unique_lock<std::recursive_mutex> lock() const { return std::unique_lock<std::recursive_mutex>(mutex_); }
 
     /// @param pose  #B*16 column-major posed bone matrices. @throws InvalidInput
     /// @param out   #V*3 deformed positions
@@ -47,7 +59,8 @@ private:
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
 
-    // Per-frame scratch, kept to avoid allocating every frame.
+    mutable std::recursive_mutex mutex_;
+    // Per-frame scratch, kept to avoid allocating every frame (guarded by mutex_).
     SkeletonPose pose_;
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;

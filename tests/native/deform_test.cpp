@@ -8,6 +8,9 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <atomic>
+#include <thread>
+
 namespace sd {
 namespace {
 
@@ -161,6 +164,35 @@ TEST(Deform, ResultDoesNotDependOnTheThreadCount) {
         d.deform(pose.data(), two.data());
     }
     EXPECT_EQ(one, two);
+}
+
+TEST(Deform, ConcurrentCallsOnOneDeformerGiveTheSerialResults) {
+    // A render thread and the viewport may deform the same character at once: each call must
+    // get the result of its own pose and settings, as if the calls had run one after another.
+    const test::Arm arm(0.1, 0.07, 200, 48);
+    Deformer d(arm.rig, arm.bind());
+    const int kPoses = 6;
+    std::vector<std::vector<float>> poses, serial;
+    for (int i = 0; i < kPoses; ++i) {
+        poses.push_back(arm.pose(glm::radians(20.0 * i), 0.3 * i));
+        serial.emplace_back(arm.mesh.size());
+        d.deform(poses[i].data(), serial[i].data());
+    }
+    for (int i = 1; i < kPoses; ++i) ASSERT_NE(serial[i], serial[0]);
+    std::atomic<int> mismatches{0};
+    auto worker = [&](int first) {
+        std::vector<float> out(arm.mesh.size());
+        for (int round = 0; round < 40; ++round) {
+            const int i = (first + round) % kPoses;
+            d.deform(poses[i].data(), out.data());
+            if (out != serial[i]) ++mismatches;
+        }
+    };
+    std::thread a(worker, 0), b(worker, 3), c(worker, 5);
+    a.join();
+    b.join();
+    c.join();
+    EXPECT_EQ(mismatches.load(), 0);
 }
 
 }  // namespace
