@@ -304,15 +304,18 @@ def test_operator_errors_are_reported():
     assert not bpy.ops.object.sweep_deform_add.poll()
 
 
-def test_shared_mesh_is_refused():
-    char = helpers.load("makehuman")
+def test_shared_mesh_can_be_bound():
+    """A mesh used by two objects (Alt+D) binds: the binding lives in the object, the offsets in
+    the object's own carrier; the other object keeps its own stack (no Sweep Deform)."""
+    char = helpers.load("fixture")
     helpers.use_test_rig([char])
     other = char.mesh.copy()  # a linked duplicate: same mesh data
     bpy.context.scene.collection.objects.link(other)
-    bpy.context.view_layer.objects.active = char.mesh
-    with pytest.raises(RuntimeError, match="single user"):
-        bpy.ops.object.sweep_deform_add()
-    assert char.mesh.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(char.mesh) is None
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+    assert other.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(other) is None
 
 
 def test_disable_and_enable_the_extension():

@@ -10,6 +10,8 @@ the depsgraph their own writes back (see handlers.py). Entries are keyed by obje
 bind id, so a new binding never meets an old entry.
 """
 
+import threading
+
 import numpy as np
 
 from ..core import arrays, fit_report, native
@@ -28,6 +30,8 @@ class Entry:
         self.load_error = ""  # why the stored binding could not be used (error may say more)
         self.deformer = None
         self.key = None
+        self.carrier_name = None  # the carrier the key was written into
+        self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self.settings = None
         self.labels = []
         self.frames = 0

@@ -31,6 +31,19 @@ _modes = {}
 _reported = set()
 
 
+def shows(obj, depsgraph, render):
+    """Whether the object is seen in this evaluation. In a render: not ``hide_render``, nor in a
+    collection switched off for renders. In the viewport: visible in the depsgraph's view layer
+    (not hidden, not in an excluded or hidden collection, in the view layer at all). A character
+    that does not show costs nothing; showing it again is an update, which evaluates it."""
+    if render:
+        return not obj.hide_render and not any(c.hide_render for c in obj.users_collection)
+    try:
+        return obj.visible_get(view_layer=depsgraph.view_layer) if depsgraph is not None else obj.visible_get()
+    except (RuntimeError, TypeError, ReferenceError):
+        return True
+
+
 def evaluate_scene(scene, depsgraph, render=False):
     """Updates every bound character of the scene. Returns how many were rewritten."""
     written = 0
@@ -45,8 +58,8 @@ def evaluate_scene(scene, depsgraph, render=False):
             if _modes.get(key) == 'EDIT' and arm.mode != 'EDIT':
                 deformer_cache.forget_armature(arm)
             _modes[key] = arm.mode
-        if render and obj.hide_render:
-            continue
+        if not shows(obj, depsgraph, render):
+            continue  # costs nothing; evaluated when it shows again (that is an update too)
         try:
             written += frame.evaluate(obj, depsgraph, render)
         except ReferenceError:
@@ -84,6 +97,9 @@ def on_load_post(*_args):
         modifier.node_group()  # bring an older layout up to date
     for scene in bpy.data.scenes:
         for obj in bound_objects.in_scene(scene):
+            # Files bound by layout version 1 kept the offsets in the mesh: they go (once, at
+            # load); the object gets its carrier at its first evaluation.
+            modifier.remove_offset_attribute(obj.data)
             if obj.sweep_deform.state == 'BOUND':
                 bind_state.check_topology(obj)
 

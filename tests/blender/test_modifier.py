@@ -1,0 +1,307 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The modifier in full (issue 16): the per-frame offsets live in a hidden carrier object per
+bound object, never in the character's mesh; linked duplicates each deform with their own
+armature; characters that do not show cost nothing; a modifier before Sweep Deform that
+changes the vertex count is reported and passed through; the core is safe to call from two
+threads at once."""
+
+import hashlib
+import threading
+import time
+
+import bpy
+import numpy as np
+
+import helpers
+from test_bad_input import handler_failures
+from test_deform import check_equals_core
+
+_FIELDS = {'FLOAT': 'value', 'INT': 'value', 'BOOLEAN': 'value', 'INT8': 'value', 'FLOAT_VECTOR': 'vector',
+           'FLOAT2': 'vector', 'FLOAT_COLOR': 'color', 'BYTE_COLOR': 'color', 'QUATERNION': 'value'}
+
+
+def mesh_digest(mesh):
+    """SHA-1 of the mesh datablock's vertex positions and every attribute (name, domain, type,
+    values), and of its shape keys."""
+    h = hashlib.sha1()
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    h.update(co.tobytes())
+    for attr in sorted(mesh.attributes, key=lambda a: a.name):
+        h.update(f"{attr.name}/{attr.domain}/{attr.data_type}".encode())
+        field = _FIELDS.get(attr.data_type)
+        if field is None or len(attr.data) == 0:
+            continue
+        width = {'vector': 3 if attr.data_type == 'FLOAT_VECTOR' else 2, 'color': 4}.get(field, 1)
+        if attr.data_type == 'QUATERNION':
+            width = 4
+        dtype = np.float32 if attr.data_type not in ('INT', 'BOOLEAN', 'INT8') else np.int32
+        values = np.empty(len(attr.data) * width, dtype if attr.data_type != 'BOOLEAN' else bool)
+        attr.data.foreach_get(field, values)
+        h.update(values.tobytes())
+    if mesh.shape_keys is not None:
+        for kb in mesh.shape_keys.key_blocks:
+            data = np.empty(len(kb.data) * 3, np.float32)
+            kb.data.foreach_get("co", data)
+            h.update(kb.name.encode() + data.tobytes())
+    return h.hexdigest()
+
+
+def animate_elbows(char, frames_angles):
+    """Keys elbows and knees (the file's own animation goes first)."""
+    arm = char.armature
+    arm.animation_data_clear()
+    for frame, angle in frames_angles:
+        helpers.pose_limbs(char, elbow=angle, knee=0.5 * angle)
+        for n in char.elbows + char.knees:
+            arm.pose.bones[n].keyframe_insert("rotation_euler", frame=frame)
+
+
+def core_calls():
+    return helpers.sub("blender.frame").core_calls
+
+
+def test_playback_leaves_the_mesh_untouched():
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    scene = bpy.context.scene
+    animate_elbows(char, ((1, 0.0), (50, 1.4), (100, 0.2)))
+    scene.frame_set(1)
+    mesh = obj.data
+    before = mesh_digest(mesh)
+    names = set(mesh.attributes.keys())
+    calls = core_calls()
+    seen = {}
+    for f in range(1, 101):
+        scene.frame_set(f)
+        if f in (1, 37, 50, 100):
+            seen[f] = check_equals_core(obj, f"frame {f}")
+    assert core_calls() - calls >= 90  # the frames were deformed, through the core
+    assert not np.allclose(seen[1], seen[50])
+    assert mesh_digest(mesh) == before, "playing wrote into the character's mesh"
+    assert set(mesh.attributes.keys()) == names and "sweep_deform_offset" not in names
+    # The offsets are in the object's own carrier, which is in no collection.
+    modifier = helpers.sub("blender.modifier")
+    carrier = modifier.get_carrier(modifier.find(obj))
+    assert carrier is not None and modifier.owns(obj, carrier) and not carrier.users_collection
+    assert len(carrier.data.vertices) == len(mesh.vertices)
+
+
+def test_linked_duplicates_each_on_their_own_armature():
+    """Alt+D of the character and its armature: one mesh, two objects, two armatures in
+    different poses: both are what the core computes for their own pose."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    for o in bpy.context.selected_objects:
+        o.select_set(False)
+    obj.select_set(True)
+    char.armature.select_set(True)
+    bpy.context.view_layer.objects.active = char.armature
+    assert bpy.ops.object.duplicate(linked=True) == {'FINISHED'}
+    new_arm = bpy.context.view_layer.objects.active
+    new_obj = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
+    assert new_obj.data == obj.data and new_arm != char.armature  # a shared mesh
+    assert new_obj.sweep_deform.armature == new_arm
+    new_arm.location.x += 1.0
+    for n in char.elbows:
+        helpers.set_rotation(new_arm.pose.bones[n], (1.3, 0.0, 0.0))
+    helpers.pose_limbs(char, elbow=0.3, knee=0.9)
+    bpy.context.view_layer.update()
+    a, b = check_equals_core(obj, "original"), check_equals_core(new_obj, "linked duplicate")
+    assert not np.allclose(a, b)
+    assert new_obj.sweep_deform.state == 'BOUND' and not new_obj.sweep_deform.message
+    # And again after another pose of the first one only.
+    helpers.pose_limbs(char, elbow=1.0, knee=0.1)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "original, pose 2")
+    np.testing.assert_array_equal(check_equals_core(new_obj, "duplicate, unchanged"), b)
+    modifier = helpers.sub("blender.modifier")
+    ca, cb = (modifier.get_carrier(modifier.find(o)) for o in (obj, new_obj))
+    assert ca != cb and modifier.owns(obj, ca) and modifier.owns(new_obj, cb)
+    # Saved and reopened, both still deform.
+    path = helpers.tmp_dir() + "/linked_duplicates.blend"
+    names = obj.name, new_obj.name, new_arm.name
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj, new_obj, new_arm = (bpy.data.objects[n] for n in names)
+    helpers.set_rotation(new_arm.pose.bones[char.elbows[0]], (0.6, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "reopened")
+    check_equals_core(new_obj, "duplicate reopened")
+
+
+def _hide(objs, scene):
+    """Nine characters that do not show, three ways each."""
+    excluded = bpy.data.collections.new("Excluded")
+    scene.collection.children.link(excluded)
+    bpy.context.view_layer.layer_collection.children[excluded.name].exclude = True
+    for i, o in enumerate(objs):
+        if i % 3 == 0:
+            o.hide_set(True)
+        elif i % 3 == 1:
+            o.hide_viewport = True
+        else:
+            for c in list(o.users_collection):
+                c.objects.unlink(o)
+            excluded.objects.link(o)
+
+
+def _time_frames(scene, frames):
+    t = time.perf_counter()
+    for f in frames:
+        scene.frame_set(f)
+    return (time.perf_counter() - t) / len(frames)
+
+
+def test_hidden_and_unchanged_characters_cost_nothing():
+    """Ten bound characters (linked duplicates, each with its own animated armature), nine
+    that do not show: a frame deforms one. Counted (core calls), and timed against a scene
+    with the visible one alone, in the same run (printed, not asserted)."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    scene = bpy.context.scene
+    animate_elbows(char, ((1, 0.0), (30, 1.4), (60, 0.2)))
+    others = []
+    for i in range(9):
+        for o in bpy.context.selected_objects:
+            o.select_set(False)
+        obj.select_set(True)
+        char.armature.select_set(True)
+        bpy.context.view_layer.objects.active = char.armature
+        assert bpy.ops.object.duplicate(linked=True) == {'FINISHED'}
+        arm_i = bpy.context.view_layer.objects.active
+        arm_i.location.x += 1.0 + i
+        others.append((next(o for o in bpy.context.selected_objects if o.type == 'MESH'), arm_i))
+    scene.frame_set(1)
+    bpy.context.view_layer.update()
+    for o, _ in others:
+        check_equals_core(o, "before hiding")
+    _hide([o for o, _ in others], scene)
+    scene.frame_set(2)
+    frames = list(range(3, 30))
+
+    calls = core_calls()
+    per_frame_hidden = _time_frames(scene, frames)
+    assert core_calls() - calls == len(frames)  # the visible one only
+    check_equals_core(obj, "visible")
+
+    # The pose does not change between frames 61 and 70 (after the last key): nothing to do.
+    scene.frame_set(61)
+    calls = core_calls()
+    for f in range(62, 71):
+        scene.frame_set(f)
+    assert core_calls() == calls
+
+    # Showing one again deforms it at once, for the current pose.
+    shown, shown_arm = others[0]
+    shown.hide_set(False)
+    helpers.set_rotation(shown_arm.pose.bones[char.elbows[0]], (0.9, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    check_equals_core(shown, "shown again")
+    shown.hide_set(True)
+    bpy.context.view_layer.update()
+
+    # The same frames with the visible character alone in the scene.
+    for o, a in others:
+        for c in list(o.users_collection) + list(a.users_collection):
+            if o.name in c.objects:
+                c.objects.unlink(o)
+            if a.name in c.objects:
+                c.objects.unlink(a)
+    scene.frame_set(2)
+    calls = core_calls()
+    per_frame_alone = _time_frames(scene, frames)
+    assert core_calls() - calls == len(frames)
+    print(f"\nten characters, nine hidden: {1e3 * per_frame_hidden:.2f} ms a frame; the visible one alone: "
+          f"{1e3 * per_frame_alone:.2f} ms; ratio {per_frame_hidden / per_frame_alone:.2f}")
+
+
+def test_hide_render_costs_nothing_in_a_render():
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    handlers = helpers.sub("blender.handlers")
+    dg = bpy.context.evaluated_depsgraph_get()
+    assert handlers.shows(obj, dg, render=True)
+    obj.hide_render = True
+    assert not handlers.shows(obj, dg, render=True)
+    assert handlers.shows(obj, dg, render=False)  # still drawn in the viewport
+
+
+def test_vertex_count_changed_before_the_modifier():
+    """An Array before Sweep Deform: the geometry passes through unchanged and the panel says
+    why and what to do; after Sweep Deform it is fine."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.1, knee=0.7)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+    modifier = helpers.sub("blender.modifier")
+    panel = helpers.sub("ui.panel")
+    assert panel.vertex_count_problem(bpy.context, obj) is None
+    array = obj.modifiers.new("Array", 'ARRAY')
+    array.count = 2
+    bpy.ops.object.modifier_move_to_index(modifier="Array", index=0)
+    assert list(obj.modifiers).index(modifier.find(obj)) == 1
+    bpy.context.view_layer.update()
+    co, _ = helpers.evaluated_positions(obj)
+    md = modifier.find(obj)
+    md.show_viewport = False
+    bpy.context.view_layer.update()
+    passed, _ = helpers.evaluated_positions(obj)
+    md.show_viewport = True
+    bpy.context.view_layer.update()
+    assert len(co) == 2 * len(obj.data.vertices)
+    np.testing.assert_array_equal(co, passed)  # passed through unchanged
+    message = panel.vertex_count_problem(bpy.context, obj)
+    assert message and "'Array'" in message and "changes the vertex count" in message \
+        and "passes the geometry through unchanged" in message, message
+    if hasattr(md, "node_warnings"):  # Blender 5.x lists the modifier's warnings
+        assert any("vertex count" in w.message for w in md.node_warnings), [w.message for w in md.node_warnings]
+    # Moved after Sweep Deform: deformed, then arrayed.
+    bpy.ops.object.modifier_move_to_index(modifier="Array", index=len(obj.modifiers) - 1)
+    bpy.context.view_layer.update()
+    assert panel.vertex_count_problem(bpy.context, obj) is None
+    co, _ = helpers.evaluated_positions(obj)
+    expected, _ = helpers.core_expectation(obj)
+    np.testing.assert_array_equal(co[:len(expected)], expected)
+
+
+def test_two_threads_on_one_deformer_match_the_serial_results():
+    """ctypes releases the GIL: a render thread and the viewport can run the same character's
+    deformer at once. Each call must give the serial result for its own pose."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    bpy.context.view_layer.update()
+    e = helpers.sub("blender.deformer_cache").entry(obj)
+    d = e.deformer
+    poses = []
+    for angle in (0.2, 0.7, 1.2, 1.6):
+        helpers.pose_limbs(char, elbow=angle, knee=angle)
+        bpy.context.view_layer.update()
+        poses.append(e.armature_pose(char.armature.evaluated_get(bpy.context.evaluated_depsgraph_get())).copy())
+    V = d.vertex_count
+    serial = [d.deform(p, np.empty((V, 3), np.float32)).copy() for p in poses]
+    assert not np.array_equal(serial[0], serial[3])
+    bad = []
+
+    def worker(first):
+        out = np.empty((V, 3), np.float32)
+        for r in range(60):
+            i = (first + r) % len(poses)
+            d.deform(poses[i], out)
+            if not np.array_equal(out, serial[i]):
+                bad.append(i)
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in (0, 2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not bad, f"{len(bad)} of 120 concurrent results differ from the serial ones"
+    assert handler_failures() == set()
