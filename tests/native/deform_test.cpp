@@ -182,7 +182,7 @@ TEST(Deform, ConcurrentCallsOnOneDeformerGiveTheSerialResults) {
     std::atomic<int> mismatches{0};
     auto worker = [&](int first) {
         std::vector<float> out(arm.mesh.size());
-        for (int round = 0; round < 40; ++round) {
+        for (int round = 0; round < 120; ++round) {
             const int i = (first + round) % kPoses;
             d.deform(poses[i].data(), out.data());
             if (out != serial[i]) ++mismatches;

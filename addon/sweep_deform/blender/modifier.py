@@ -56,6 +56,13 @@ def is_sweep_group(ng):
     return ng is not None and ng.get(GROUP_TAG, 0) >= 1
 
 
+def _int_inputs(node):
+    """The A and B inputs of a Compare node set to integers (Blender 4.x lists the sockets of
+    every type, 5.x only those of its type)."""
+    found = [i for i in node.inputs if i.type == 'INT' and getattr(i, "enabled", True)]
+    return found[0], found[1]
+
+
 def _build(ng):
     ng.nodes.clear()
     ng.interface.clear()
@@ -88,13 +95,15 @@ def _build(ng):
     same = nodes.new('FunctionNodeCompare')
     same.data_type = 'INT'
     same.operation = 'EQUAL'
-    links.new(size_in.outputs['Point Count'], same.inputs[2])
-    links.new(size_carrier.outputs['Point Count'], same.inputs[3])
+    a, b = _int_inputs(same)
+    links.new(size_in.outputs['Point Count'], a)
+    links.new(size_carrier.outputs['Point Count'], b)
     has_carrier = nodes.new('FunctionNodeCompare')
     has_carrier.data_type = 'INT'
     has_carrier.operation = 'GREATER_THAN'
-    links.new(size_carrier.outputs['Point Count'], has_carrier.inputs[2])
-    has_carrier.inputs[3].default_value = 0
+    a, b = _int_inputs(has_carrier)
+    links.new(size_carrier.outputs['Point Count'], a)
+    b.default_value = 0
     differ = nodes.new('FunctionNodeBooleanMath')
     differ.operation = 'NIMPLY'  # has a carrier and not the same count
     links.new(has_carrier.outputs['Result'], differ.inputs[0])
