@@ -117,7 +117,7 @@ def configure(obj, mode):
     md_arm.show_viewport = not mode.startswith('sweep')
     md_arm.use_deform_preserve_volume = mode == 'armature_dqs'
     if not mode.startswith('sweep'):
-        modifier.clear_offsets(obj.data)
+        modifier.clear_offsets(obj)
     bpy.context.view_layer.update()
 
 
