@@ -81,11 +81,50 @@ def test_playback_leaves_the_mesh_untouched():
     assert not np.allclose(seen[1], seen[50])
     assert mesh_digest(mesh) == before, "playing wrote into the character's mesh"
     assert set(mesh.attributes.keys()) == names and "sweep_deform_offset" not in names
-    # The offsets are in the object's own carrier, which is in no collection.
+    # The offsets are in the object's own carriers (viewport, render), in no collection.
     modifier = helpers.sub("blender.modifier")
-    carrier = modifier.get_carrier(modifier.find(obj))
-    assert carrier is not None and modifier.owns(obj, carrier) and not carrier.users_collection
-    assert len(carrier.data.vertices) == len(mesh.vertices)
+    for render in (False, True):
+        carrier = modifier.get_carrier(modifier.find(obj), render)
+        assert carrier is not None and modifier.owns(obj, carrier, render) and not carrier.users_collection
+        assert len(carrier.data.vertices) == len(mesh.vertices)
+
+
+def carrier_positions(obj, render):
+    modifier = helpers.sub("blender.modifier")
+    c = modifier.get_carrier(modifier.find(obj), render)
+    co = np.empty(len(c.data.vertices) * 3, np.float32)
+    c.data.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def test_a_running_render_keeps_its_own_carrier():
+    """While a render runs (in another thread with Lock Interface off), the viewport writes its
+    own carrier only: the render's offsets stay those of the frame being rendered. When no render
+    runs, the render carrier follows the viewport (a render without a frame change shows it)."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    frame = helpers.sub("blender.frame")
+    helpers.pose_limbs(char, elbow=1.2, knee=0.4)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "idle")
+    np.testing.assert_array_equal(carrier_positions(obj, True), carrier_positions(obj, False))
+    rendered = carrier_positions(obj, True)
+    helpers.sub("blender.handlers").on_render_init()
+    try:
+        assert frame.rendering == 1
+        helpers.pose_limbs(char, elbow=0.2, knee=1.3)
+        bpy.context.view_layer.update()
+        check_equals_core(obj, "viewport while rendering")
+        np.testing.assert_array_equal(carrier_positions(obj, True), rendered)
+        assert not np.array_equal(carrier_positions(obj, False), rendered)
+    finally:
+        helpers.sub("blender.handlers").on_render_end()
+    assert frame.rendering == 0
+    helpers.pose_limbs(char, elbow=0.5, knee=0.5)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "idle again")
+    np.testing.assert_array_equal(carrier_positions(obj, True), carrier_positions(obj, False))
 
 
 def test_linked_duplicates_each_on_their_own_armature():
@@ -118,8 +157,9 @@ def test_linked_duplicates_each_on_their_own_armature():
     check_equals_core(obj, "original, pose 2")
     np.testing.assert_array_equal(check_equals_core(new_obj, "duplicate, unchanged"), b)
     modifier = helpers.sub("blender.modifier")
-    ca, cb = (modifier.get_carrier(modifier.find(o)) for o in (obj, new_obj))
-    assert ca != cb and modifier.owns(obj, ca) and modifier.owns(new_obj, cb)
+    for render in (False, True):
+        ca, cb = (modifier.get_carrier(modifier.find(o), render) for o in (obj, new_obj))
+        assert ca != cb and modifier.owns(obj, ca, render) and modifier.owns(new_obj, cb, render)
     # Saved and reopened, both still deform.
     path = helpers.tmp_dir() + "/linked_duplicates.blend"
     names = obj.name, new_obj.name, new_arm.name

@@ -234,7 +234,7 @@ def store(obj, arm, inp, out):
     md = modifier.find(obj)
     if md is None:
         md = modifier.ensure(obj, before=replaced)
-    modifier.carrier(obj, md, out.binding.vertex_count)  # zero offsets until the first frame
+    modifier.carriers(obj, md, out.binding.vertex_count)  # zero offsets until the first frame
     deformer_cache.forget(obj)
     obj.update_tag()
     return md

@@ -29,8 +29,8 @@ class Entry:
         self.error = ""
         self.load_error = ""  # why the stored binding could not be used (error may say more)
         self.deformer = None
-        self.key = None
-        self.carrier_name = None  # the carrier the key was written into
+        self.written = {}  # carrier name -> the key of the state written into it
+        self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self.settings = None
         self.labels = []
@@ -120,6 +120,11 @@ class Entry:
         rest = arrays.gather_pose(rest, order)
         return rest.size == self.rest_pose.size and np.allclose(rest, self.rest_pose, rtol=0.0, atol=1e-5)
 
+    def forget_writes(self):
+        """The next evaluation computes and writes again, whatever it finds."""
+        self.written.clear()
+        self.refused_key = None
+
     def refuse(self, obj, message):
         """A frame that cannot be deformed: nothing is written, the panel shows `message` (the
         entry's error) and the console gets it once (command-line renders have no panel)."""
@@ -183,4 +188,4 @@ def settings_changed(obj):
     """A volume setting changed: the next evaluation recomputes (the key includes them)."""
     e = peek(obj)
     if e is not None:
-        e.key = None
+        e.forget_writes()

@@ -23,6 +23,11 @@ KEPT = "the mesh keeps its last good deformation until this is fixed"
 #: Calls into the core for a frame (sd_deform or sd_deform_with_anatomy), all objects together:
 #: what the tests count to see that hidden or unchanged characters cost nothing.
 core_calls = 0
+#: Renders running now (render_init .. render_complete / render_cancel, see handlers.py).
+#: While none runs, the viewport writes the render carrier too, so a render that changes no
+#: frame (a script's render.render()) shows the viewport's pose; while one runs, the render
+#: carrier is the render's alone.
+rendering = 0
 
 
 def linked_mesh_message(obj):
@@ -86,7 +91,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
     if problem:
         e.refuse(obj, f"{problem}: {KEPT}")
-        e.key = None
+        e.forget_writes()
         return False
     # Offsets are vectors: only the linear part of mesh → armature space maps them back.
     try:
@@ -94,7 +99,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         to_mesh = e.to_mesh_space(linear)
     except (ValueError, np.linalg.LinAlgError):  # flat in float32 though not quite in float64
         e.refuse(obj, f"The object '{obj.name}' or its armature has a zero scale: {KEPT}")
-        e.key = None
+        e.forget_writes()
         return False
     settings = (bool(s.use_volume_preservation), float(s.volume_strength))
     # Corrections: in the viewport from the object itself (Blender copies animated and driven
@@ -104,15 +109,22 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     anatomy_key = anatomy.sync_anatomy(e, obj, obj_eval.sweep_deform if render else s)
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
            corrections_key, anatomy_key)
-    # The object's own carrier (made here for a copy of a bound object, a library override or
-    # a file bound by an older version; not during a render, which cannot add data).
-    carrier, fresh = modifier.carrier(obj, md, e.deformer.vertex_count, create=not render)
-    if carrier is None:
+    # The object's own carriers (made here for a copy of a bound object, a library override or
+    # a file bound by an older version; not during a render, which cannot add data): a render
+    # writes the render carrier; the viewport its own, and the render's while no render runs.
+    V = e.deformer.vertex_count
+    if render:
+        targets = [modifier.carrier(obj, md, V, create=False, render=True)]
+    elif rendering:
+        targets = [modifier.carrier(obj, md, V, create=True, render=False)]
+    else:
+        targets = modifier.carriers(obj, md, V)
+    if any(c is None for c, _ in targets):
         e.refuse(obj, "Sweep Deform has no place for this object's deformation yet: it is made at the next "
                       f"update in the viewport; {KEPT}")
         return False
-    if key == e.key and not fresh and e.carrier_name == carrier.name:
-        return False  # already written (a new carrier is written again)
+    if key == e.refused_key or all(not fresh and e.written.get(c.name) == key for c, fresh in targets):
+        return False  # already written (a new carrier is written again), or refused
     if settings != e.settings:
         e.deformer.set_volume_preservation(*settings)
         e.settings = settings
@@ -126,17 +138,19 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
         e.refuse(obj, f"Unusable pose: {checks.name_bones(str(err), e.bone_names)}: {KEPT}")
-        e.key = key
+        e.refused_key = key
         return False
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
     if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
-        e.key = key
+        e.refused_key = key
         return False
-    modifier.write_offsets(carrier, offsets)
-    e.carrier_name = carrier.name
-    e.last_pose = pose.copy()  # the overlay and key edits follow the pose the mesh shows
-    e.key = key
+    for c, _ in targets:
+        modifier.write_offsets(c, offsets)
+        e.written[c.name] = key
+    if not render:
+        e.last_pose = pose.copy()  # the overlay and key edits follow the pose the viewport shows
+    e.refused_key = None
     e.error = ""
     e.frames += 1
     return True

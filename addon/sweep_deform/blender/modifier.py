@@ -39,14 +39,18 @@ MODIFIER_NAME = "Sweep Deform"
 #: Tag on the node group (an ID property) and its layout version.
 GROUP_TAG = "sweep_deform_group"
 GROUP_VERSION = 2
-#: The node group's object input that points at the carrier.
+#: The node group's object inputs: the carrier of the viewport and that of renders.
 CARRIER_INPUT = "Carrier"
+RENDER_CARRIER_INPUT = "Render Carrier"
+INPUTS = {False: CARRIER_INPUT, True: RENDER_CARRIER_INPUT}
+#: On a carrier object: whether it is the render carrier.
+CARRIER_RENDER = "sweep_deform_render"
 #: On a carrier object: the name of the object it belongs to. A copy of the object (Alt+D,
 #: Shift+D) still points at the original's carrier and gets its own; a renamed object gets a new
 #: one (the old one, used by nobody, is not saved). A name and not an ID pointer: a pointer back
 #: would make a cycle that keeps a deleted character and its carrier in the file for ever.
 CARRIER_OWNER = "sweep_deform_owner"
-CARRIER_PREFIX = ".Sweep Deform carrier "
+CARRIER_PREFIX = {False: ".Sweep Deform carrier ", True: ".Sweep Deform render carrier "}
 #: The Warning node's text (Blender 4.3+).
 COUNT_WARNING = ("A modifier before Sweep Deform changes the vertex count: the geometry passes through "
                  "unchanged. Move that modifier after Sweep Deform")
@@ -68,21 +72,33 @@ def _build(ng):
     ng.interface.clear()
     ng.interface.new_socket(name="Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
     ng.interface.new_socket(name=CARRIER_INPUT, in_out='INPUT', socket_type='NodeSocketObject')
+    ng.interface.new_socket(name=RENDER_CARRIER_INPUT, in_out='INPUT', socket_type='NodeSocketObject')
     ng.interface.new_socket(name="Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
     if hasattr(ng, "is_modifier"):
         ng.is_modifier = True
     nodes, links = ng.nodes, ng.links
     gin = nodes.new('NodeGroupInput')
     gout = nodes.new('NodeGroupOutput')
+    # The viewport's carrier or the render's (a render in another thread while the viewport
+    # plays other frames: each evaluation reads the offsets written for it).
     info = nodes.new('GeometryNodeObjectInfo')
     info.transform_space = 'ORIGINAL'
     links.new(gin.outputs[CARRIER_INPUT], info.inputs['Object'])
+    render_info = nodes.new('GeometryNodeObjectInfo')
+    render_info.transform_space = 'ORIGINAL'
+    links.new(gin.outputs[RENDER_CARRIER_INPUT], render_info.inputs['Object'])
+    is_viewport = nodes.new('GeometryNodeIsViewport')
+    pick = nodes.new('GeometryNodeSwitch')
+    pick.input_type = 'GEOMETRY'
+    links.new(is_viewport.outputs[0], pick.inputs['Switch'])
+    links.new(render_info.outputs['Geometry'], pick.inputs['False'])
+    links.new(info.outputs['Geometry'], pick.inputs['True'])
     position = nodes.new('GeometryNodeInputPosition')
     index = nodes.new('GeometryNodeInputIndex')
     sample = nodes.new('GeometryNodeSampleIndex')
     sample.data_type = 'FLOAT_VECTOR'
     sample.domain = 'POINT'
-    links.new(info.outputs['Geometry'], sample.inputs['Geometry'])
+    links.new(pick.outputs[0], sample.inputs['Geometry'])
     links.new(position.outputs['Position'], sample.inputs['Value'])
     links.new(index.outputs['Index'], sample.inputs['Index'])
     # counts: the incoming mesh's and the carrier's points
@@ -91,7 +107,7 @@ def _build(ng):
     size_carrier = nodes.new('GeometryNodeAttributeDomainSize')
     size_carrier.component = 'MESH'
     links.new(gin.outputs['Geometry'], size_in.inputs['Geometry'])
-    links.new(info.outputs['Geometry'], size_carrier.inputs['Geometry'])
+    links.new(pick.outputs[0], size_carrier.inputs['Geometry'])
     same = nodes.new('FunctionNodeCompare')
     same.data_type = 'INT'
     same.operation = 'EQUAL'
@@ -127,7 +143,8 @@ def _build(ng):
     links.new(sample.outputs[0], setpos.inputs['Offset'])
     links.new(setpos.outputs['Geometry'], remove.inputs['Geometry'])
     links.new(remove.outputs['Geometry'], gout.inputs['Geometry'])
-    gin.location, info.location = (-900, 0), (-650, -150)
+    gin.location, info.location, render_info.location = (-1400, 0), (-1150, -100), (-1150, -300)
+    is_viewport.location, pick.location = (-1150, 100), (-900, -150)
     position.location, index.location = (-650, -350), (-650, -450)
     sample.location, size_in.location, size_carrier.location = (-400, -150), (-650, -600), (-650, -750)
     same.location, has_carrier.location = (-400, -600), (-400, -780)
@@ -186,10 +203,10 @@ def active(md, render):
 # ---- the modifier's carrier input ---------------------------------------------------------
 
 
-def _input_identifier(md):
+def _input_identifier(md, render=False):
     ng = md.node_group
     for item in ng.interface.items_tree if ng is not None else ():
-        if getattr(item, "in_out", None) == 'INPUT' and item.name == CARRIER_INPUT:
+        if getattr(item, "in_out", None) == 'INPUT' and item.name == INPUTS[render]:
             return item.identifier
     return None
 
@@ -208,9 +225,9 @@ def _input_slot(md, identifier):
     return slot
 
 
-def get_carrier(md):
-    """The object the modifier's Carrier input points at, or None."""
-    identifier = _input_identifier(md)
+def get_carrier(md, render=False):
+    """The object the modifier's Carrier (Render Carrier) input points at, or None."""
+    identifier = _input_identifier(md, render)
     if identifier is None:
         return None
     if getattr(getattr(md, "properties", None), "inputs", None) is not None:
@@ -220,10 +237,10 @@ def get_carrier(md):
     return value if isinstance(value, bpy.types.Object) else None
 
 
-def set_carrier(md, carrier):
-    identifier = _input_identifier(md)
+def set_carrier(md, carrier, render=False):
+    identifier = _input_identifier(md, render)
     if identifier is None:
-        raise RuntimeError(f"the node group of '{md.name}' has no {CARRIER_INPUT} input")
+        raise RuntimeError(f"the node group of '{md.name}' has no {INPUTS[render]} input")
     slot = _input_slot(md, identifier)
     if slot is not None:
         slot.value = carrier
@@ -238,8 +255,9 @@ def set_carrier(md, carrier):
 # ---- the carrier ------------------------------------------------------------------------------
 
 
-def owns(obj, carrier):
-    return carrier is not None and carrier.type == 'MESH' and carrier.get(CARRIER_OWNER) == obj.name
+def owns(obj, carrier, render=False):
+    return (carrier is not None and carrier.type == 'MESH' and carrier.get(CARRIER_OWNER) == obj.name
+            and bool(carrier.get(CARRIER_RENDER, False)) == render)
 
 
 def _writable(carrier):
@@ -248,23 +266,24 @@ def _writable(carrier):
     return carrier.library is None and carrier.override_library is None and carrier.data.library is None
 
 
-def _new_carrier(obj, vertex_count):
-    name = (CARRIER_PREFIX + obj.name)[:63]
+def _new_carrier(obj, vertex_count, render):
+    name = (CARRIER_PREFIX[render] + obj.name)[:63]
     mesh = bpy.data.meshes.new(name)
     mesh.vertices.add(vertex_count)  # zero offsets: the rest mesh
     carrier = bpy.data.objects.new(name, mesh)
     carrier[CARRIER_OWNER] = obj.name
+    carrier[CARRIER_RENDER] = render
     carrier.hide_select = True
     return carrier
 
 
-def carrier(obj, md, vertex_count, create=True):
-    """(carrier, fresh): the object's own carrier with `vertex_count` vertices: the one the
-    modifier points at if `obj` owns it, else (a copy of another object, an old file, a library
-    override whose carrier is linked) a new local one when `create` (not during a render), else
-    (None, False). `fresh`: made or resized now, so it holds no offsets yet."""
-    c = get_carrier(md)
-    if owns(obj, c) and _writable(c):
+def carrier(obj, md, vertex_count, create=True, render=False):
+    """(carrier, fresh): the object's own viewport (render) carrier with `vertex_count`
+    vertices: the one the modifier points at if `obj` owns it, else (a copy of another object,
+    an old file, a library override whose carrier is linked) a new local one when `create` (not
+    during a render), else (None, False). `fresh`: made or resized now, so it holds no offsets."""
+    c = get_carrier(md, render)
+    if owns(obj, c, render) and _writable(c):
         if len(c.data.vertices) == vertex_count:
             return c, False
         c.data.clear_geometry()
@@ -272,9 +291,14 @@ def carrier(obj, md, vertex_count, create=True):
         return c, True
     if not create or md.id_data.library is not None:
         return None, False
-    c = _new_carrier(obj, vertex_count)
-    set_carrier(md, c)
+    c = _new_carrier(obj, vertex_count, render)
+    set_carrier(md, c, render)
     return c, True
+
+
+def carriers(obj, md, vertex_count):
+    """Both carriers, made if missing (binding, the viewport): [(viewport, fresh), (render, fresh)]."""
+    return [carrier(obj, md, vertex_count, True, render) for render in (False, True)]
 
 
 def write_offsets(carrier_obj, offsets):
@@ -286,31 +310,35 @@ def write_offsets(carrier_obj, offsets):
 
 
 def clear_offsets(obj):
-    """The object's carrier (if it owns one) goes empty: the modifier then does nothing. The
+    """The object's carriers (those it owns) go empty: the modifier then does nothing. The
     mesh is left alone. Returns True if there was something to clear."""
     md = find(obj)
-    c = get_carrier(md) if md is not None else None
-    if not owns(obj, c) or not _writable(c) or len(c.data.vertices) == 0:
-        return False
-    c.data.clear_geometry()
-    c.data.update()
-    return True
+    cleared = False
+    for render in (False, True):
+        c = get_carrier(md, render) if md is not None else None
+        if not owns(obj, c, render) or not _writable(c) or len(c.data.vertices) == 0:
+            continue
+        c.data.clear_geometry()
+        c.data.update()
+        cleared = True
+    return cleared
 
 
 def remove_carrier(obj):
-    """Unbinding: the object's own carrier is deleted and the input cleared (a carrier shared
-    with the object this one was copied from is left to its owner)."""
+    """Unbinding: the object's own carriers are deleted and the inputs cleared (carriers shared
+    with the object this one was copied from are left to their owner)."""
     md = find(obj)
     if md is None:
         return
-    c = get_carrier(md)
-    if c is not None and md.id_data.library is None:
-        set_carrier(md, None)
-    if owns(obj, c) and _writable(c) and c.users == 0:
-        mesh = c.data
-        bpy.data.objects.remove(c)
-        if mesh.users == 0:
-            bpy.data.meshes.remove(mesh)
+    for render in (False, True):
+        c = get_carrier(md, render)
+        if c is not None and md.id_data.library is None:
+            set_carrier(md, None, render)
+        if owns(obj, c, render) and _writable(c) and c.users == 0:
+            mesh = c.data
+            bpy.data.objects.remove(c)
+            if mesh.users == 0:
+                bpy.data.meshes.remove(mesh)
 
 
 def remove_offset_attribute(mesh):
