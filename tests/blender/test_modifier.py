@@ -367,3 +367,60 @@ def test_two_threads_on_one_deformer_match_the_serial_results():
         t.join()
     assert not bad, f"{len(bad)} of 120 concurrent results differ from the serial ones"
     assert handler_failures() == set()
+
+
+def _layout_1(ng):
+    """The node group as version 1 of the add-on built it (offsets in the mesh's attribute)."""
+    ng.nodes.clear()
+    ng.interface.clear()
+    ng.interface.new_socket(name="Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    ng.interface.new_socket(name="Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    nodes, links = ng.nodes, ng.links
+    gin, gout = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
+    named = nodes.new('GeometryNodeInputNamedAttribute')
+    named.data_type = 'FLOAT_VECTOR'
+    named.inputs['Name'].default_value = "sweep_deform_offset"
+    setpos = nodes.new('GeometryNodeSetPosition')
+    remove = nodes.new('GeometryNodeRemoveAttribute')
+    remove.inputs['Name'].default_value = "sweep_deform_offset"
+    links.new(gin.outputs['Geometry'], setpos.inputs['Geometry'])
+    links.new(named.outputs['Exists'], setpos.inputs['Selection'])
+    links.new(named.outputs['Attribute'], setpos.inputs['Offset'])
+    links.new(setpos.outputs['Geometry'], remove.inputs['Geometry'])
+    links.new(remove.outputs['Geometry'], gout.inputs['Geometry'])
+    ng["sweep_deform_group"] = 1
+
+
+def test_file_bound_by_the_previous_version_loads_and_deforms():
+    """A file as version 1 saved it (node group layout 1, the offsets in the mesh's
+    ``sweep_deform_offset`` attribute, no carriers): opened, the group is brought up to date,
+    the attribute leaves the mesh, the carriers are made, and the character deforms."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0, knee=0.6)
+    bpy.context.view_layer.update()
+    offsets = check_equals_core(obj, "bound") - helpers.base_positions(obj)
+    modifier = helpers.sub("blender.modifier")
+    md = modifier.find(obj)
+    for render in (False, True):
+        c = modifier.get_carrier(md, render)
+        modifier.set_carrier(md, None, render)
+        bpy.data.objects.remove(c)
+    _layout_1(md.node_group)
+    attr = obj.data.attributes.new("sweep_deform_offset", 'FLOAT_VECTOR', 'POINT')
+    attr.data.foreach_set("vector", offsets.reshape(-1))
+    path = helpers.tmp_dir() + "/bound_by_version_1.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj = bpy.data.objects["Body"]
+    md = modifier.find(obj)
+    assert md is not None and md.node_group.get(modifier.GROUP_TAG) == modifier.GROUP_VERSION
+    assert "sweep_deform_offset" not in obj.data.attributes
+    helpers.pose_limbs(char, elbow=0.4, knee=1.2)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "migrated")
+    assert obj.sweep_deform.state == 'BOUND' and not helpers.sub("blender.deformer_cache").peek(obj).error
+    for render in (False, True):
+        assert modifier.owns(obj, modifier.get_carrier(md, render), render)
