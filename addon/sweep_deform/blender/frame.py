@@ -23,11 +23,6 @@ KEPT = "the mesh keeps its last good deformation until this is fixed"
 #: Calls into the core for a frame (sd_deform or sd_deform_with_anatomy), all objects together:
 #: what the tests count to see that hidden or unchanged characters cost nothing.
 core_calls = 0
-#: Renders running now (render_init .. render_complete / render_cancel, see handlers.py).
-#: While none runs, the viewport writes the render carrier too, so a render that changes no
-#: frame (a script's render.render()) shows the viewport's pose; while one runs, the render
-#: carrier is the render's alone.
-rendering = 0
 
 
 def linked_mesh_message(obj):
@@ -110,15 +105,14 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
            corrections_key, anatomy_key)
     # The object's own carriers (made here for a copy of a bound object, a library override or
-    # a file bound by an older version; not during a render, which cannot add data): a render
-    # writes the render carrier; the viewport its own, and the render's while no render runs.
+    # a file bound by an older version; not during a render, which cannot add data). A render
+    # writes the render carrier (every render path runs frame_change_post with its depsgraph,
+    # F12 included), the viewport its own: neither overwrites what the other reads.
     V = e.deformer.vertex_count
     if render:
         targets = [modifier.carrier(obj, md, V, create=False, render=True)]
-    elif rendering:
-        targets = [modifier.carrier(obj, md, V, create=True, render=False)]
     else:
-        targets = modifier.carriers(obj, md, V)
+        targets = modifier.carriers(obj, md, V)[:1]  # the render's is made too, for renders to come
     if any(c is None for c, _ in targets):
         e.refuse(obj, "Sweep Deform has no place for this object's deformation yet: it is made at the next "
                       f"update in the viewport; {KEPT}")

@@ -9,8 +9,6 @@ When offsets are written (measured in Blender 4.3 and 5.2, see docs/addon.md):
   In a render its ``depsgraph`` is the render depsgraph, so the pose is the one being rendered;
   the write goes into the object's *render* carrier and is picked up by that very frame's
   render, while the viewport keeps its own carrier (see modifier.py).
-* ``render_init`` / ``render_complete`` / ``render_cancel`` — count the renders running, so
-  that the viewport leaves the render carrier alone meanwhile (frame.rendering).
 
 No feedback loop: a write tags the mesh, and Blender evaluates it again in a second pass of
 the same update *without* calling the handlers again; and :func:`frame.evaluate` writes
@@ -93,18 +91,7 @@ def on_frame_change_post(scene, depsgraph=None):
 
 
 @persistent
-def on_render_init(*_args):
-    frame.rendering += 1
-
-
-@persistent
-def on_render_end(*_args):
-    frame.rendering = max(0, frame.rendering - 1)
-
-
-@persistent
 def on_load_post(*_args):
-    frame.rendering = 0
     deformer_cache.clear()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
@@ -126,9 +113,6 @@ def on_undo_redo_post(*_args):
 _HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
     (bpy.app.handlers.frame_change_post, on_frame_change_post),
-    (bpy.app.handlers.render_init, on_render_init),
-    (bpy.app.handlers.render_complete, on_render_end),
-    (bpy.app.handlers.render_cancel, on_render_end),
     (bpy.app.handlers.load_post, on_load_post),
     (bpy.app.handlers.undo_post, on_undo_redo_post),
     (bpy.app.handlers.redo_post, on_undo_redo_post),

@@ -305,7 +305,9 @@ def write_offsets(carrier_obj, offsets):
     """Writes (V,3) float32 offsets as the carrier's vertex positions and tags it (the
     character's mesh is not touched)."""
     mesh = carrier_obj.data
-    mesh.vertices.foreach_set('co', offsets.reshape(-1))
+    # The position attribute takes the buffer in one copy; vertices' "co" goes element by
+    # element (measured at 75K vertices: 0.5 ms against 7 ms in 4.3, 0.07 against 15 in 5.2).
+    mesh.attributes['position'].data.foreach_set('vector', offsets.reshape(-1))
     mesh.update()
 
 
