@@ -159,15 +159,8 @@ def test_duplicated_character_follows_its_own_armature():
     char = helpers.load("makehuman")
     helpers.use_test_rig([char])
     obj = helpers.bind(char)
-    for o in bpy.context.selected_objects:
-        o.select_set(False)
-    obj.select_set(True)
-    char.armature.select_set(True)
-    bpy.context.view_layer.objects.active = char.armature
-    assert bpy.ops.object.duplicate() == {'FINISHED'}
-    new_arm = bpy.context.view_layer.objects.active
-    new_obj = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
-    assert new_arm != char.armature and new_obj.sweep_deform.armature == new_arm
+    new_obj, new_arm = helpers.duplicate_character(obj, char.armature)
+    assert new_obj.sweep_deform.armature == new_arm
     new_arm.location.x += 1.0
     helpers.set_rotation(new_arm.pose.bones["lowerarm_l"], (1.2, 0.0, 0.0))
     helpers.pose_limbs(char, elbow=0.2)

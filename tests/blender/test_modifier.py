@@ -128,15 +128,8 @@ def test_linked_duplicates_each_on_their_own_armature():
     char = helpers.load("fixture")
     helpers.use_test_rig([char])
     obj = helpers.bind(char)
-    for o in bpy.context.selected_objects:
-        o.select_set(False)
-    obj.select_set(True)
-    char.armature.select_set(True)
-    bpy.context.view_layer.objects.active = char.armature
-    assert bpy.ops.object.duplicate(linked=True) == {'FINISHED'}
-    new_arm = bpy.context.view_layer.objects.active
-    new_obj = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
-    assert new_obj.data == obj.data and new_arm != char.armature  # a shared mesh
+    new_obj, new_arm = helpers.duplicate_character(obj, char.armature, linked=True)
+    assert new_obj.data == obj.data  # a shared mesh
     assert new_obj.sweep_deform.armature == new_arm
     new_arm.location.x += 1.0
     for n in char.elbows:
@@ -219,15 +212,9 @@ def test_hidden_and_unchanged_characters_cost_nothing():
     animate_elbows(char, ((1, 0.0), (30, 1.4), (60, 0.2)))
     others = []
     for i in range(9):
-        for o in bpy.context.selected_objects:
-            o.select_set(False)
-        obj.select_set(True)
-        char.armature.select_set(True)
-        bpy.context.view_layer.objects.active = char.armature
-        assert bpy.ops.object.duplicate(linked=True) == {'FINISHED'}
-        arm_i = bpy.context.view_layer.objects.active
+        obj_i, arm_i = helpers.duplicate_character(obj, char.armature, linked=True)
         arm_i.location.x += 1.0 + i
-        others.append((next(o for o in bpy.context.selected_objects if o.type == 'MESH'), arm_i))
+        others.append((obj_i, arm_i))
     scene.frame_set(1)
     bpy.context.view_layer.update()
     for o, _ in others:
