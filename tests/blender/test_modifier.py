@@ -246,6 +246,22 @@ def test_hidden_and_unchanged_characters_cost_nothing():
     shown_arm.hide_set(True)
     bpy.context.view_layer.update()
 
+    # A mesh disabled in viewports that a visible object uses (a Shrinkwrap target) is
+    # evaluated: Blender puts it in the depsgraph for its user. (Its armature must be evaluated
+    # too, for its pose: here it is shown again.)
+    used, used_arm = others[1]  # disabled in viewports
+    used_arm.hide_viewport = False
+    cube = bpy.data.objects.new("Shrinkwrapped", bpy.data.meshes.new("Shrinkwrapped"))
+    scene.collection.objects.link(cube)
+    cube.modifiers.new("Shrinkwrap", 'SHRINKWRAP').target = used
+    scene.frame_set(2)
+    calls = core_calls()
+    scene.frame_set(3)
+    assert core_calls() - calls == 2
+    check_equals_core(used, "hidden but used")
+    bpy.data.objects.remove(cube)
+    used_arm.hide_viewport = True
+
     # The same frames with the visible character alone in the scene.
     for o, a in others:
         for c in list(o.users_collection) + list(a.users_collection):
@@ -264,15 +280,23 @@ def test_hidden_and_unchanged_characters_cost_nothing():
 
 
 def test_hide_render_costs_nothing_in_a_render():
+    """A character hidden for renders is not deformed by a render (its render carrier is not
+    written); shown again for renders, it is."""
+    import test_render
     char = helpers.load("fixture")
     helpers.use_test_rig([char])
     obj = helpers.bind(char)
-    handlers = helpers.sub("blender.handlers")
-    dg = bpy.context.evaluated_depsgraph_get()
-    assert handlers.shows(obj, dg, render=True)
+    test_render.setup_scene(char)
+    helpers.pose_limbs(char, elbow=1.2, knee=0.4)
+    bpy.context.view_layer.update()
     obj.hide_render = True
-    assert not handlers.shows(obj, dg, render=True)
-    assert handlers.shows(obj, dg, render=False)  # still drawn in the viewport
+    calls = core_calls()
+    assert bpy.ops.render.render() == {'FINISHED'}
+    assert core_calls() == calls and not carrier_positions(obj, True).any()
+    obj.hide_render = False
+    assert bpy.ops.render.render() == {'FINISHED'}
+    assert core_calls() == calls + 1
+    np.testing.assert_array_equal(carrier_positions(obj, True), carrier_positions(obj, False))
 
 
 def test_vertex_count_changed_before_the_modifier():

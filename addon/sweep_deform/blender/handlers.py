@@ -33,14 +33,24 @@ _reported = set()
 
 
 def shows(obj, depsgraph, render):
-    """Whether the object is seen in this evaluation. In a render: not ``hide_render``, nor in a
-    collection switched off for renders. In the viewport: visible in the depsgraph's view layer
-    (not hidden, not in an excluded or hidden collection, in the view layer at all). A character
-    that does not show costs nothing; showing it again is an update, which evaluates it."""
-    if render:
-        return not obj.hide_render and not any(c.hide_render for c in obj.users_collection)
+    """Whether this evaluation needs the object; one that it does not need costs nothing, and
+    showing it again is an update, which evaluates it for the current pose.
+
+    * Not in the depsgraph at all (disabled in viewports or excluded and used by nothing; in a
+      render, ``hide_render`` and used by nothing; not in the view layer): not needed.
+    * Visible in the depsgraph's view layer: needed.
+    * In the depsgraph though not visible: Blender put it there because something uses it (a
+      Surface Deform or Shrinkwrap target, a constraint target), so it is needed; except when
+      the object itself is hidden (H, the eye), which Blender keeps in the depsgraph whether used
+      or not: not needed (disable it in viewports instead to hide a character others use)."""
+    if depsgraph is None:
+        return True
     try:
-        return obj.visible_get(view_layer=depsgraph.view_layer) if depsgraph is not None else obj.visible_get()
+        if obj.evaluated_get(depsgraph) == obj:
+            return False  # the original: this depsgraph does not hold it
+        if render or obj.visible_get(view_layer=depsgraph.view_layer):
+            return True
+        return not obj.hide_get(view_layer=depsgraph.view_layer)
     except (RuntimeError, TypeError, ReferenceError):
         return True
 

@@ -282,6 +282,8 @@ def carrier(obj, md, vertex_count, create=True, render=False):
     vertices: the one the modifier points at if `obj` owns it, else (a copy of another object,
     an old file, a library override whose carrier is linked) a new local one when `create` (not
     during a render), else (None, False). `fresh`: made or resized now, so it holds no offsets."""
+    if _input_identifier(md, render) is None and md.id_data.library is None:
+        md.node_group = node_group()  # a group of an older layout: brought up to date
     c = get_carrier(md, render)
     if owns(obj, c, render) and _writable(c):
         if len(c.data.vertices) == vertex_count:
