@@ -97,10 +97,8 @@ def carrier_positions(obj, render):
     return co.reshape(-1, 3)
 
 
-def test_render_and_viewport_keep_their_own_carriers():
-    """A render writes the render carrier for the pose it renders; the viewport writes its own
-    and never the render's, so a render in another thread (Lock Interface off) and the viewport
-    playing other frames do not overwrite each other's offsets."""
+def posed_for_a_render():
+    """The light fixture bound and posed in a scene set up for tiny Workbench renders."""
     import test_render
     char = helpers.load("fixture")
     helpers.use_test_rig([char])
@@ -108,6 +106,14 @@ def test_render_and_viewport_keep_their_own_carriers():
     test_render.setup_scene(char)
     helpers.pose_limbs(char, elbow=1.2, knee=0.4)
     bpy.context.view_layer.update()
+    return char, obj
+
+
+def test_render_and_viewport_keep_their_own_carriers():
+    """A render writes the render carrier for the pose it renders; the viewport writes its own
+    and never the render's, so a render in another thread (Lock Interface off) and the viewport
+    playing other frames do not overwrite each other's offsets."""
+    char, obj = posed_for_a_render()
     check_equals_core(obj, "viewport")
     rendered = carrier_positions(obj, False)  # the viewport's offsets for this pose
     assert rendered.any() and not carrier_positions(obj, True).any()  # no render yet: zero offsets
@@ -282,13 +288,7 @@ def test_hidden_and_unchanged_characters_cost_nothing():
 def test_hide_render_costs_nothing_in_a_render():
     """A character hidden for renders is not deformed by a render (its render carrier is not
     written); shown again for renders, it is."""
-    import test_render
-    char = helpers.load("fixture")
-    helpers.use_test_rig([char])
-    obj = helpers.bind(char)
-    test_render.setup_scene(char)
-    helpers.pose_limbs(char, elbow=1.2, knee=0.4)
-    bpy.context.view_layer.update()
+    char, obj = posed_for_a_render()
     obj.hide_render = True
     calls = core_calls()
     assert bpy.ops.render.render() == {'FINISHED'}
