@@ -2,6 +2,9 @@
 
 #include "key_pose.h"
 
+#include <glm/gtc/quaternion.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 namespace sd {
@@ -20,6 +23,16 @@ Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(st
     volume_before.assign(rig_.sweeps.size(), 0.0);
     volume_after.assign(rig_.sweeps.size(), 0.0);
     volume_iterations.assign(rig_.sweeps.size(), 0);
+    // The frames the binding was made in: the uncorrected sweeps at rest.
+    SkeletonPose rest;
+    rest.set_rest(rig_.skeleton);
+    std::vector<dvec3> centers;
+    std::vector<dquat> rotations;
+    for (const Sweep& s : rig_.sweeps) {
+        pose_keys(s, rest, centers, rotations);
+        rest_key_rotations_.push_back(SweepGeometry(centers, rotations).key_rotations());
+    }
+    key_rotations_ = rest_key_rotations_;
 }
 
 void Deformer::set_volume_preservation(bool enabled, double strength) {
@@ -55,6 +68,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
         const SweepGeometry g(centers, rotations);
+        key_rotations_[si] = g.key_rotations();
 
         // Volume control (Sect. 4.4) on the key half-axes.
         const VolumeForm form(s.quadrature, volume_density(s.quadrature, g));
@@ -118,6 +132,46 @@ void Deformer::deform(const float* pose, float* out) {
         prepare_sweeps(pose_);
         bones_ = bone_affines(pose_);
         kernel_.run(half_spans_.data(), bones_.data(), binding_, out);
+    });
+}
+
+namespace {
+
+/// The rotation of a span's frame at u, as the kernel blends it: Q(u) = (1-u) q0 + u q1.
+dmat3 frame_at(const std::vector<dquat>& keys, int span, float u) {
+    const dquat& q0 = keys[span];
+    const dquat& q1 = keys[span + 1];
+    const double t = u;
+    return glm::mat3_cast(glm::normalize(dquat((1 - t) * q0.w + t * q1.w, (1 - t) * q0.x + t * q1.x,
+                                               (1 - t) * q0.y + t * q1.y, (1 - t) * q0.z + t * q1.z)));
+}
+
+}  // namespace
+
+void Deformer::deform_frames(const float* pose, float* out, float* frames) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
+    deform(pose, out);
+    tbb::this_task_arena::isolate([&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, vertex_count(), 1024), [&](const tbb::blocked_range<int>& r) {
+            for (int v = r.begin(); v != r.end(); ++v) {
+                dmat3 j(0.0);
+                for (uint32_t i = binding_.sweep_offsets[v]; i < binding_.sweep_offsets[v + 1]; ++i) {
+                    const SweepInfluence& in = binding_.sweep_influences[i];
+                    const dmat3 posed = frame_at(key_rotations_[in.sweep], in.span, in.u);
+                    const dmat3 rest = frame_at(rest_key_rotations_[in.sweep], in.span, in.u);
+                    j += static_cast<double>(in.weight) * (posed * glm::transpose(rest));
+                }
+                for (uint32_t i = binding_.bone_offsets[v]; i < binding_.bone_offsets[v + 1]; ++i) {
+                    const BoneInfluence& in = binding_.bone_influences[i];
+                    const Affine3x4& m = bones_[in.bone];
+                    for (int c = 0; c < 3; ++c)
+                        for (int rr = 0; rr < 3; ++rr) j[c][rr] += in.weight * m.m[rr][c];
+                }
+                float* f = frames + 9 * static_cast<size_t>(v);
+                for (int rr = 0; rr < 3; ++rr)
+                    for (int c = 0; c < 3; ++c) f[3 * rr + c] = static_cast<float>(j[c][rr]);  // row-major
+            }
+        });
     });
 }
 

@@ -40,6 +40,15 @@ public:
     /// @param out   #V*3 deformed positions
     void deform(const float* pose, float* out);
 
+    /// deform(), and for every vertex the local linear map J of its deformation (#V*9 floats,
+    /// row-major 3x3, armature space): Σ_sweeps w R(u) R_rest(u)^T + Σ_bones w M_b (linear
+    /// part), blended with the weights the positions are. R(u) is the frame of the vertex's
+    /// cross-section at its sweep parameter u in the pose, R_rest(u) at rest: a point moved off
+    /// the rest surface by δ within its cross-section's plane deforms to out + J δ (the
+    /// cross-section's half-axis changes of the volume control are added, not scaled, so they
+    /// do not enter J). The rest pose gives the identity.
+    void deform_frames(const float* pose, float* out, float* frames);
+
     const Rig& rig() const { return rig_; }
     const Binding& binding() const { return binding_; }
     int vertex_count() const { return binding_.vertex_count(); }
@@ -59,6 +68,8 @@ private:
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
 
+    std::vector<std::vector<dquat>> rest_key_rotations_;  // per sweep, uncorrected rest keys
+    std::vector<std::vector<dquat>> key_rotations_;       // per sweep, of the last frame
     mutable std::recursive_mutex mutex_;
     // Per-frame scratch, kept to avoid allocating every frame (guarded by mutex_).
     SkeletonPose pose_;
