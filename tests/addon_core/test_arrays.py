@@ -41,6 +41,21 @@ def test_offsets_in_mesh_space():
                                rtol=1e-6)
 
 
+def test_frames_in_mesh_space():
+    """J - I in mesh space: a mesh-space move d maps to L^-1 J L d (L: mesh -> armature)."""
+    rng = np.random.default_rng(1)
+    frames = rng.normal(size=(4, 3, 3)).astype(np.float32)
+    ident = arrays.frames_in_mesh_space(frames, np.eye(3), None)
+    np.testing.assert_allclose(ident + np.eye(3, dtype=np.float32), frames, atol=1e-6)
+    lin = np.array([[0.0, -2.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 2.0]])  # turned and scaled
+    to_mesh = np.linalg.inv(lin).T.astype(np.float32)
+    got = arrays.frames_in_mesh_space(frames, lin, to_mesh)
+    d = rng.normal(size=3)
+    for v in range(4):
+        expected = np.linalg.inv(lin) @ frames[v] @ lin @ d - d
+        np.testing.assert_allclose(got[v] @ d, expected, rtol=1e-5, atol=1e-6)
+
+
 def test_fingerprints_see_connectivity_not_just_counts():
     a = arrays.topology_fingerprint([0, 1, 1, 2], [0, 1, 2], [3])
     b = arrays.topology_fingerprint([0, 1, 1, 2], [0, 2, 1], [3])

@@ -430,3 +430,46 @@ def test_file_bound_by_the_previous_version_loads_and_deforms():
     assert obj.sweep_deform.state == 'BOUND' and not helpers.sub("blender.deformer_cache").peek(obj).error
     for render in (False, True):
         assert modifier.owns(obj, modifier.get_carrier(md, render), render)
+
+
+def _weighted(obj, group, least=0.999):
+    """Indices of the vertices with at least `least` of their weight in vertex group `group`."""
+    index = obj.vertex_groups[group].index
+    return np.array([v.index for v in obj.data.vertices
+                     if any(g.group == index and g.weight >= least for g in v.groups)], np.int64)
+
+
+def test_shape_key_rides_along_with_the_head():
+    """A relative shape key on the head (3 cm along +X, value 1), the neck turned 90°: the head
+    is the rigid turn of basis + key (Blender's Armature modifier on the same mesh, where the
+    head's vertices follow one bone), within 1e-4 of the diagonal. Without the local linear
+    maps the key's move would stay along +X."""
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    head = _weighted(obj, "head")
+    assert len(head) > 1000
+    base = helpers.base_positions(obj)
+    obj.shape_key_add(name="Basis", from_mix=False)
+    key = obj.shape_key_add(name="Shift", from_mix=False)
+    shifted = base.copy()
+    shifted[head, 0] += 0.03
+    key.data.foreach_set("co", shifted.reshape(-1))
+    key.value = 1.0
+    neck = char.armature.pose.bones["neck_01"]
+    helpers.set_rotation(neck, (0.0, np.pi / 2, 0.0))  # about the bone's own axis: the head turns
+    bpy.context.view_layer.update()
+    co, _ = helpers.evaluated_positions(obj)
+    rigid = helpers.armature_modifier_positions(obj)
+    diag = helpers.diagonal(base)
+    err = np.linalg.norm(co[head] - rigid[head], axis=1)
+    turned = np.linalg.norm(rigid[head] - shifted[head], axis=1)
+    print(f"\nhead ({len(head)} vertices), shape key +3 cm X, neck 90°: vs the rigid turn median {np.median(err):.2e}, "
+          f"max {err.max():.2e} (diagonal {diag:.3f}); the head moved {np.median(turned):.3f} (median)")
+    assert np.median(turned) > 0.02  # the neck really turned the head
+    assert err.max() <= 1e-4 * diag
+    # The rest of the body: the mesh as before (no key there), equal to the core's result.
+    key.value = 0.0
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "key at 0")

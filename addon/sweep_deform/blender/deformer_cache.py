@@ -15,7 +15,7 @@ import threading
 import numpy as np
 
 from ..core import arrays, fit_report, native
-from . import bound_objects, persistence
+from . import bound_objects, mesh_data, persistence
 
 _cache = {}
 
@@ -32,6 +32,8 @@ class Entry:
         self.written = {}  # carrier name -> the key of the state written into it
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
+        self._frames = None
+        self._mesh_rest = None
         self.settings = None
         self.labels = []
         self.frames = 0
@@ -119,6 +121,18 @@ class Entry:
             return False
         rest = arrays.gather_pose(rest, order)
         return rest.size == self.rest_pose.size and np.allclose(rest, self.rest_pose, rtol=0.0, atol=1e-5)
+
+    def frame_buffer(self):
+        """(V,3,3) float32 for the local linear maps (made on first use)."""
+        if self._frames is None:
+            self._frames = np.empty((self.deformer.vertex_count, 3, 3), np.float32)
+        return self._frames
+
+    def mesh_rest(self, obj):
+        """(V,3) float32 rest positions of the mesh, mesh space (read once per entry)."""
+        if self._mesh_rest is None:
+            self._mesh_rest = mesh_data.vertex_positions(obj.data).astype(np.float32).reshape(-1, 3)
+        return self._mesh_rest
 
     def forget_writes(self):
         """The next evaluation computes and writes again, whatever it finds."""

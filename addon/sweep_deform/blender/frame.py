@@ -102,8 +102,11 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # render from the render depsgraph's copy, which holds that frame's animated values.
     corrections_key = corrections.sync_corrections(e, obj_eval.sweep_deform if render else s)
     anatomy_key = anatomy.sync_anatomy(e, obj, obj_eval.sweep_deform if render else s)
+    # Shape keys or modifiers before Sweep Deform ride along through each vertex's local linear
+    # map (not with the anatomical effects, which stay position-based).
+    with_frames = e.anatomy is None and modifier.needs_frames(obj, md, render)
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
-           corrections_key, anatomy_key)
+           corrections_key, anatomy_key, with_frames)
     # The object's own carriers (made here for a copy of a bound object, a library override or
     # a file bound by an older version; not during a render, which cannot add data). A render
     # writes the render carrier (every render path runs frame_change_post with its depsgraph,
@@ -125,9 +128,12 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     global core_calls
     core_calls += 1
     try:
+        frames = None
         if e.anatomy is not None:
             deformed = e.anatomy.deform(e.deformer, pose)
             e.anatomy_stats = e.anatomy.stats()
+        elif with_frames:
+            deformed, frames = e.deformer.deform_frames(pose, e.deformer.positions, e.frame_buffer())
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
@@ -139,8 +145,11 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
         e.refused_key = key
         return False
+    extra = {}
+    if frames is not None:
+        extra = dict(frames=arrays.frames_in_mesh_space(frames, linear, to_mesh), rest=e.mesh_rest(obj))
     for c, _ in targets:
-        modifier.write_offsets(c, offsets)
+        modifier.write_offsets(c, offsets, **extra)
         e.written[c.name] = key
     if not render:
         e.last_pose = pose.copy()  # the overlay and key edits follow the pose the viewport shows
