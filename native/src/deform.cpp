@@ -7,6 +7,9 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include <array>
+#include <cmath>
+
 namespace sd {
 
 Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(std::move(binding)) {
@@ -137,13 +140,31 @@ void Deformer::deform(const float* pose, float* out) {
 
 namespace {
 
-/// The rotation of a span's frame at u, as the kernel blends it: Q(u) = (1-u) q0 + u q1.
-dmat3 frame_at(const std::vector<dquat>& keys, int span, float u) {
-    const dquat& q0 = keys[span];
-    const dquat& q1 = keys[span + 1];
-    const double t = u;
-    return glm::mat3_cast(glm::normalize(dquat((1 - t) * q0.w + t * q1.w, (1 - t) * q0.x + t * q1.x,
-                                               (1 - t) * q0.y + t * q1.y, (1 - t) * q0.z + t * q1.z)));
+using Quat = std::array<float, 4>;  // x, y, z, w
+
+/// Every key rotation of every sweep in float, flattened, with each sweep's first index.
+void flatten(const std::vector<std::vector<dquat>>& keys, std::vector<Quat>& out, std::vector<int>& first) {
+    out.clear();
+    first.clear();
+    for (const auto& sweep : keys) {
+        first.push_back(static_cast<int>(out.size()));
+        for (const dquat& q : sweep)
+            out.push_back({static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z),
+                           static_cast<float>(q.w)});
+    }
+}
+
+/// Q(u) = (1-u) q0 + u q1 of a span's key rotations, normalised, as the kernel blends them.
+Quat blend(const Quat& q0, const Quat& q1, float u) {
+    Quat q;
+    float n = 0.0f;
+    for (int i = 0; i < 4; ++i) {
+        q[i] = q0[i] + u * (q1[i] - q0[i]);
+        n += q[i] * q[i];
+    }
+    const float inv = 1.0f / std::sqrt(n);
+    for (float& c : q) c *= inv;
+    return q;
 }
 
 }  // namespace
@@ -151,25 +172,55 @@ dmat3 frame_at(const std::vector<dquat>& keys, int span, float u) {
 void Deformer::deform_frames(const float* pose, float* out, float* frames) {
     const std::lock_guard<std::recursive_mutex> guard(mutex_);
     deform(pose, out);
+    const auto& influences = binding_.sweep_influences;
+    std::vector<Quat> keys;
+    std::vector<int> first;
+    if (rest_inverse_.size() != influences.size()) {  // once per deformer: conj(Q_rest(u))
+        flatten(rest_key_rotations_, keys, first);
+        rest_inverse_.resize(influences.size());
+        for (size_t i = 0; i < influences.size(); ++i) {
+            const SweepInfluence& in = influences[i];
+            const int k = first[in.sweep] + in.span;
+            const Quat q = blend(keys[k], keys[k + 1], in.u);
+            rest_inverse_[i] = {-q[0], -q[1], -q[2], q[3]};
+        }
+    }
+    flatten(key_rotations_, keys, first);
     tbb::this_task_arena::isolate([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, vertex_count(), 1024), [&](const tbb::blocked_range<int>& r) {
+        tbb::parallel_for(tbb::blocked_range<int>(0, vertex_count(), 2048), [&](const tbb::blocked_range<int>& r) {
             for (int v = r.begin(); v != r.end(); ++v) {
-                dmat3 j(0.0);
+                float j[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};  // row-major
                 for (uint32_t i = binding_.sweep_offsets[v]; i < binding_.sweep_offsets[v + 1]; ++i) {
-                    const SweepInfluence& in = binding_.sweep_influences[i];
-                    const dmat3 posed = frame_at(key_rotations_[in.sweep], in.span, in.u);
-                    const dmat3 rest = frame_at(rest_key_rotations_[in.sweep], in.span, in.u);
-                    j += static_cast<double>(in.weight) * (posed * glm::transpose(rest));
+                    const SweepInfluence& in = influences[i];
+                    const int key = first[in.sweep] + in.span;
+                    const Quat p = blend(keys[key], keys[key + 1], in.u);
+                    const auto& c = rest_inverse_[i];
+                    // q = Q(u) Q_rest(u)^-1, then its rotation matrix, weighted.
+                    const float x = p[3] * c[0] + p[0] * c[3] + p[1] * c[2] - p[2] * c[1];
+                    const float y = p[3] * c[1] - p[0] * c[2] + p[1] * c[3] + p[2] * c[0];
+                    const float z = p[3] * c[2] + p[0] * c[1] - p[1] * c[0] + p[2] * c[3];
+                    const float w = p[3] * c[3] - p[0] * c[0] - p[1] * c[1] - p[2] * c[2];
+                    const float k = in.weight;
+                    j[0][0] += k * (1 - 2 * (y * y + z * z));
+                    j[0][1] += k * 2 * (x * y - w * z);
+                    j[0][2] += k * 2 * (x * z + w * y);
+                    j[1][0] += k * 2 * (x * y + w * z);
+                    j[1][1] += k * (1 - 2 * (x * x + z * z));
+                    j[1][2] += k * 2 * (y * z - w * x);
+                    j[2][0] += k * 2 * (x * z - w * y);
+                    j[2][1] += k * 2 * (y * z + w * x);
+                    j[2][2] += k * (1 - 2 * (x * x + y * y));
                 }
                 for (uint32_t i = binding_.bone_offsets[v]; i < binding_.bone_offsets[v + 1]; ++i) {
                     const BoneInfluence& in = binding_.bone_influences[i];
                     const Affine3x4& m = bones_[in.bone];
-                    for (int c = 0; c < 3; ++c)
-                        for (int rr = 0; rr < 3; ++rr) j[c][rr] += in.weight * m.m[rr][c];
+                    for (int rr = 0; rr < 3; ++rr)
+                        for (int c = 0; c < 3; ++c) j[rr][c] += in.weight * m.m[rr][c];
                 }
-                float* f = frames + 9 * static_cast<size_t>(v);
+                // Three blocks of #V*3: block r holds row r of every vertex's J.
+                const size_t block = 3 * static_cast<size_t>(vertex_count());
                 for (int rr = 0; rr < 3; ++rr)
-                    for (int c = 0; c < 3; ++c) f[3 * rr + c] = static_cast<float>(j[c][rr]);  // row-major
+                    for (int c = 0; c < 3; ++c) frames[rr * block + 3 * static_cast<size_t>(v) + c] = j[rr][c];
             }
         });
     });

@@ -8,6 +8,7 @@
 #include "rig.h"
 #include "sweep_kernel.h"
 
+#include <array>
 #include <mutex>
 #include <vector>
 
@@ -40,8 +41,8 @@ public:
     /// @param out   #V*3 deformed positions
     void deform(const float* pose, float* out);
 
-    /// deform(), and for every vertex the local linear map J of its deformation (#V*9 floats,
-    /// row-major 3x3, armature space): Σ_sweeps w R(u) R_rest(u)^T + Σ_bones w M_b (linear
+    /// deform(), and for every vertex the local linear map J of its deformation (#V*9 floats
+    /// in three blocks of #V*3, block r holding row r of every vertex's J; armature space): Σ_sweeps w R(u) R_rest(u)^T + Σ_bones w M_b (linear
     /// part), blended with the weights the positions are. R(u) is the frame of the vertex's
     /// cross-section at its sweep parameter u in the pose, R_rest(u) at rest: a point moved off
     /// the rest surface by δ within its cross-section's plane deforms to out + J δ (the
@@ -70,6 +71,7 @@ private:
 
     std::vector<std::vector<dquat>> rest_key_rotations_;  // per sweep, uncorrected rest keys
     std::vector<std::vector<dquat>> key_rotations_;       // per sweep, of the last frame
+    std::vector<std::array<float, 4>> rest_inverse_;      // per sweep influence: Q_rest(u)^-1
     mutable std::recursive_mutex mutex_;
     // Per-frame scratch, kept to avoid allocating every frame (guarded by mutex_).
     SkeletonPose pose_;

@@ -185,8 +185,11 @@ TEST(Deform, FramesMatchFiniteDifferencesOfPointsMovedOffTheSurface) {
     Deformer dm(arm.rig, bind_vertices(arm.rig, V, moved.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr));
     std::vector<float> rest_out(arm.mesh.size()), rest_frames(9 * static_cast<size_t>(V));
     d.deform_frames(arm.pose(0.0).data(), rest_out.data(), rest_frames.data());
+    // J_v[r][c] = frames[r * 3V + 3v + c]
+    auto at = [V](const std::vector<float>& f, int v, int r, int c) { return f[3 * (static_cast<size_t>(r) * V + v) + c]; };
     for (int v = 0; v < V; ++v)
-        for (int i = 0; i < 9; ++i) ASSERT_NEAR(rest_frames[9 * v + i], i % 4 == 0 ? 1.0f : 0.0f, 1e-6f) << v;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) ASSERT_NEAR(at(rest_frames, v, r, c), r == c ? 1.0f : 0.0f, 1e-6f) << v;
 
     const auto pose = arm.pose(glm::radians(90.0), 0.6);
     std::vector<float> out(arm.mesh.size()), out_moved(arm.mesh.size()), frames(9 * static_cast<size_t>(V));
@@ -197,18 +200,18 @@ TEST(Deform, FramesMatchFiniteDifferencesOfPointsMovedOffTheSurface) {
     dm.deform(pose.data(), out_moved.data());
     double worst = 0.0, largest_turn = 0.0;
     for (int v = 0; v < V; ++v) {
-        const float* j = &frames[9 * v];
         const float delta[3] = {moved[3 * v] - arm.mesh[3 * v], moved[3 * v + 1] - arm.mesh[3 * v + 1],
                                 moved[3 * v + 2] - arm.mesh[3 * v + 2]};
         double err = 0.0, size = 0.0;
         for (int r = 0; r < 3; ++r) {
-            const double predicted = j[3 * r] * delta[0] + j[3 * r + 1] * delta[1] + j[3 * r + 2] * delta[2];
+            const double predicted = at(frames, v, r, 0) * delta[0] + at(frames, v, r, 1) * delta[1] +
+                                     at(frames, v, r, 2) * delta[2];
             const double actual = double(out_moved[3 * v + r]) - out[3 * v + r];
             err += (predicted - actual) * (predicted - actual);
             size += double(delta[r]) * delta[r];
         }
         worst = std::max(worst, std::sqrt(err / size));
-        largest_turn = std::max(largest_turn, 1.0 - double(j[0]));  // how far J is from the identity
+        largest_turn = std::max(largest_turn, 1.0 - double(at(frames, v, 0, 0)));  // how far J is from the identity
     }
     std::printf("frames against finite differences: worst |J d - moved| / |d| = %.2e\n", worst);
     EXPECT_LT(worst, 1e-3) << "|J d - (deformed moved - deformed)| / |d|";

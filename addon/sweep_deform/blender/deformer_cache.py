@@ -32,8 +32,7 @@ class Entry:
         self.written = {}  # carrier name -> the key of the state written into it
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
-        self._frames = None
-        self._mesh_rest = None
+        self._packed = None
         self.settings = None
         self.labels = []
         self.frames = 0
@@ -122,17 +121,14 @@ class Entry:
         rest = arrays.gather_pose(rest, order)
         return rest.size == self.rest_pose.size and np.allclose(rest, self.rest_pose, rtol=0.0, atol=1e-5)
 
-    def frame_buffer(self):
-        """(V,3,3) float32 for the local linear maps (made on first use)."""
-        if self._frames is None:
-            self._frames = np.empty((self.deformer.vertex_count, 3, 3), np.float32)
-        return self._frames
-
-    def mesh_rest(self, obj):
-        """(V,3) float32 rest positions of the mesh, mesh space (read once per entry)."""
-        if self._mesh_rest is None:
-            self._mesh_rest = mesh_data.vertex_positions(obj.data).astype(np.float32).reshape(-1, 3)
-        return self._mesh_rest
+    def packed_buffer(self, obj):
+        """(5V,3) float32, a carrier's blocks with the local linear maps (modifier.FRAME_BLOCKS):
+        offsets, the three rows of J - I, the mesh's rest positions (filled once, here)."""
+        if self._packed is None:
+            V = self.deformer.vertex_count
+            self._packed = np.empty((5 * V, 3), np.float32)
+            self._packed[4 * V:] = mesh_data.vertex_positions(obj.data)
+        return self._packed
 
     def forget_writes(self):
         """The next evaluation computes and writes again, whatever it finds."""

@@ -111,11 +111,12 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # a file bound by an older version; not during a render, which cannot add data). A render
     # writes the render carrier (every render path runs frame_change_post with its depsgraph,
     # F12 included), the viewport its own: neither overwrites what the other reads.
-    V = e.deformer.vertex_count
+    n = e.deformer.vertex_count
+    count = n * (modifier.FRAME_BLOCKS if with_frames else 1)
     if render:
-        targets = [modifier.carrier(obj, md, V, create=False, render=True)]
+        targets = [modifier.carrier(obj, md, count, create=False, render=True)]
     else:
-        targets = modifier.carriers(obj, md, V)[:1]  # the render's is made too, for renders to come
+        targets = modifier.carriers(obj, md, count)[:1]  # the render's is made too, for renders to come
     if any(c is None for c, _ in targets):
         e.refuse(obj, "Sweep Deform has no place for this object's deformation yet: it is made at the next "
                       f"update in the viewport; {KEPT}")
@@ -133,7 +134,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
             deformed = e.anatomy.deform(e.deformer, pose)
             e.anatomy_stats = e.anatomy.stats()
         elif with_frames:
-            deformed, frames = e.deformer.deform_frames(pose, e.deformer.positions, e.frame_buffer())
+            # J straight into the carrier's blocks 1..3 (no copy)
+            packed = e.packed_buffer(obj)
+            frames = packed[n:4 * n].reshape(3, n, 3)
+            deformed, _ = e.deformer.deform_frames(pose, e.deformer.positions, frames)
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
@@ -141,15 +145,16 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refused_key = key
         return False
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+    if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
+        packed[:n] = offsets
+        arrays.pack_frames(frames, linear, to_mesh)
+        offsets = packed
     if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
         e.refused_key = key
         return False
-    extra = {}
-    if frames is not None:
-        extra = dict(frames=arrays.frames_in_mesh_space(frames, linear, to_mesh), rest=e.mesh_rest(obj))
     for c, _ in targets:
-        modifier.write_offsets(c, offsets, **extra)
+        modifier.write_offsets(c, offsets)
         e.written[c.name] = key
     if not render:
         e.last_pose = pose.copy()  # the overlay and key edits follow the pose the viewport shows

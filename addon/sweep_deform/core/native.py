@@ -594,7 +594,8 @@ class Deformer(_Handle):
 
     def deform_frames(self, pose, out, frames):
         """sd_deform_frames: the positions into `out` (V,3) and each vertex's local linear map J
-        into `frames` (V,3,3) row-major, armature space, both float32. Returns (out, frames)."""
+        into `frames` (3,V,3): frames[r, v] is row r of vertex v's J, armature space; both
+        float32 and contiguous. Returns (out, frames)."""
         if pose.dtype != np.float32 or pose.size != 16 * self.bone_count:
             raise ValueError(f"pose must be {16 * self.bone_count} float32 values")
         if out.size != 3 * self.vertex_count or frames.size != 9 * self.vertex_count:
