@@ -41,6 +41,23 @@ def test_offsets_in_mesh_space():
                                rtol=1e-6)
 
 
+def test_pack_frames_in_mesh_space():
+    """The rows of J - I in mesh space, in place: a mesh-space move d maps to L^-1 J L d
+    (L: mesh -> armature)."""
+    rng = np.random.default_rng(1)
+    V = 4
+    frames = rng.normal(size=(V, 3, 3)).astype(np.float32)  # [vertex, row, column]
+    blocks = np.ascontiguousarray(frames.transpose(1, 0, 2))  # [row, vertex, column], as the core writes
+    got = arrays.pack_frames(blocks.copy(), np.eye(3), None)
+    np.testing.assert_allclose(got.transpose(1, 0, 2) + np.eye(3, dtype=np.float32), frames, atol=1e-6)
+    lin = np.array([[0.0, -2.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 2.0]])  # turned and scaled
+    to_mesh = np.linalg.inv(lin).T.astype(np.float32)
+    got = arrays.pack_frames(blocks.copy(), lin, to_mesh).transpose(1, 0, 2)
+    d = rng.normal(size=3)
+    for v in range(V):
+        np.testing.assert_allclose(got[v] @ d, np.linalg.inv(lin) @ frames[v] @ lin @ d - d, rtol=1e-5, atol=1e-6)
+
+
 def test_fingerprints_see_connectivity_not_just_counts():
     a = arrays.topology_fingerprint([0, 1, 1, 2], [0, 1, 2], [3])
     b = arrays.topology_fingerprint([0, 1, 1, 2], [0, 2, 1], [3])

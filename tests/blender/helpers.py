@@ -151,6 +151,21 @@ def bind(char, use_operator=True):
     return obj
 
 
+def duplicate_character(obj, arm, linked=False):
+    """Shift+D (Alt+D with `linked`) of a mesh object and its armature, as in the viewport.
+    Returns (the new mesh object, the new armature)."""
+    for o in bpy.context.selected_objects:
+        o.select_set(False)
+    obj.select_set(True)
+    arm.select_set(True)
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.object.duplicate(linked=linked) == {'FINISHED'}
+    new_arm = bpy.context.view_layer.objects.active
+    new_obj = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
+    assert new_arm != arm and new_obj != obj
+    return new_obj, new_arm
+
+
 # ---- poses ----------------------------------------------------------------------------------
 
 

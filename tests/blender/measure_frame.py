@@ -8,7 +8,8 @@ poses, in the same Blender run. Prints a table; never fails on speed.
 
 Characters: ``fixture`` (blend_fixtures/character.blend, 75,394 vertices, bone-heat weights, up
 to 6 per vertex), ``mh53k`` (../shared/data MakeHuman subdiv1, 53,514 vertices, at most 4).
-Rig: the core's automatic fitting (``--rig fit``, the product's path) or the bone rig of
+``--shape-key 1``: a relative shape key at value 1 on the mesh (all setups deform the keyed
+mesh; Sweep Deform carries it along with sd_deform_frames). Rig: the core's automatic fitting (``--rig fit``, the product's path) or the bone rig of
 bone_rig.py (``--rig bones``). Two ways to change the pose, each timed around the call that brings the evaluated mesh
 up to date:
 
@@ -35,10 +36,11 @@ import install  # noqa: E402
 
 def args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    opts = {"zip": install.default_zip(), "frames": 60, "characters": "fixture,mh53k", "rig": "fit"}
+    opts = {"zip": install.default_zip(), "frames": 60, "characters": "fixture,mh53k", "rig": "fit", "shape-key": "0"}
     for i in range(0, len(argv) - 1, 2):
         opts[argv[i].lstrip("-")] = argv[i + 1]
     opts["frames"] = int(opts["frames"])
+    opts["shape-key"] = opts["shape-key"] not in ("0", "no", "")
     return opts
 
 
@@ -117,7 +119,7 @@ def configure(obj, mode):
     md_arm.show_viewport = not mode.startswith('sweep')
     md_arm.use_deform_preserve_volume = mode == 'armature_dqs'
     if not mode.startswith('sweep'):
-        modifier.clear_offsets(obj.data)
+        modifier.clear_offsets(obj)
     bpy.context.view_layer.update()
 
 
@@ -144,7 +146,20 @@ def ms(ts):
     return statistics.median(ts) * 1e3, statistics.mean(ts) * 1e3
 
 
-def measure(key, n, rig="fit"):
+def add_shape_key(body):
+    """A relative shape key at value 1 moving every vertex 1 mm along X: Sweep Deform then
+    carries it along with each vertex's local linear map (sd_deform_frames), the Armature
+    modifier deforms the keyed mesh."""
+    body.shape_key_add(name="Basis", from_mix=False)
+    kb = body.shape_key_add(name="Key", from_mix=False)
+    co = np.empty(len(body.data.vertices) * 3, np.float32)
+    body.data.vertices.foreach_get("co", co)
+    co[0::3] += 0.001
+    kb.data.foreach_set("co", co)
+    kb.value = 1.0
+
+
+def measure(key, n, rig="fit", shape_key=False):
     import helpers
     loaded = load(key)
     if loaded is None:
@@ -158,6 +173,8 @@ def measure(key, n, rig="fit"):
     t0 = time.perf_counter()
     assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
     bind_s = time.perf_counter() - t0
+    if shape_key:
+        add_shape_key(body)
     V = len(body.data.vertices)
     pose_list = poses(n + n // (BLOCK - WARM) * WARM + BLOCK, bones)
 
@@ -209,7 +226,7 @@ def measure(key, n, rig="fit"):
             check_deformed(body, mode)
 
     print(f"\n{key}: {V:,} vertices, {len(arm.pose.bones)} bones, {body.sweep_deform.sweep_count} sweeps, "
-          f"{'fitted' if rig == 'fit' else 'bone rig'}, fit+bind {bind_s * 1e3:.0f} ms; Blender {bpy.app.version_string}; {n} frames; median / mean ms")
+          f"{'fitted' if rig == 'fit' else 'bone rig'}{', a shape key at 1' if shape_key else ''}, fit+bind {bind_s * 1e3:.0f} ms; Blender {bpy.app.version_string}; {n} frames; median / mean ms")
     print(f"  {'':32s}{'posing':>16s}{'playback':>16s}")
     for mode, label in (('sweep', 'Sweep Deform'), ('sweep_rel', 'Sweep, Armature modifier kept'), ('armature', 'Armature modifier'),
                         ('armature_dqs', 'Armature, Preserve Volume')):
@@ -229,7 +246,7 @@ def main():
     install.install(opts["zip"])
     print(f"threads: {bpy.context.scene.render.threads}, cpus: {os.cpu_count()}")
     for key in opts["characters"].split(","):
-        measure(key, opts["frames"], opts["rig"])
+        measure(key, opts["frames"], opts["rig"], opts["shape-key"])
 
 
 if __name__ == "__main__":

@@ -159,15 +159,8 @@ def test_duplicated_character_follows_its_own_armature():
     char = helpers.load("makehuman")
     helpers.use_test_rig([char])
     obj = helpers.bind(char)
-    for o in bpy.context.selected_objects:
-        o.select_set(False)
-    obj.select_set(True)
-    char.armature.select_set(True)
-    bpy.context.view_layer.objects.active = char.armature
-    assert bpy.ops.object.duplicate() == {'FINISHED'}
-    new_arm = bpy.context.view_layer.objects.active
-    new_obj = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
-    assert new_arm != char.armature and new_obj.sweep_deform.armature == new_arm
+    new_obj, new_arm = helpers.duplicate_character(obj, char.armature)
+    assert new_obj.sweep_deform.armature == new_arm
     new_arm.location.x += 1.0
     helpers.set_rotation(new_arm.pose.bones["lowerarm_l"], (1.2, 0.0, 0.0))
     helpers.pose_limbs(char, elbow=0.2)
@@ -304,15 +297,18 @@ def test_operator_errors_are_reported():
     assert not bpy.ops.object.sweep_deform_add.poll()
 
 
-def test_shared_mesh_is_refused():
-    char = helpers.load("makehuman")
+def test_shared_mesh_can_be_bound():
+    """A mesh used by two objects (Alt+D) binds: the binding lives in the object, the offsets in
+    the object's own carrier; the other object keeps its own stack (no Sweep Deform)."""
+    char = helpers.load("fixture")
     helpers.use_test_rig([char])
     other = char.mesh.copy()  # a linked duplicate: same mesh data
     bpy.context.scene.collection.objects.link(other)
-    bpy.context.view_layer.objects.active = char.mesh
-    with pytest.raises(RuntimeError, match="single user"):
-        bpy.ops.object.sweep_deform_add()
-    assert char.mesh.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(char.mesh) is None
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+    assert other.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(other) is None
 
 
 def test_disable_and_enable_the_extension():

@@ -4,10 +4,11 @@ override, instanced as a linked collection, and appended. Each test first writes
 file into SWEEPDEFORM_TEST_TMP: the built-in character, bound with the test rig, in a
 collection "Character", saved posed.
 
-What is expected: Blender ignores an add-on's writes into linked data, so a character whose
-mesh is linked keeps the shape saved in its library, and its panel says so and how to make
-it local; once local (appended, or made local after a library override) it deforms as the
-core says. Binding linked data again is refused with a message. Nothing raises in the
+What is expected: Blender ignores an add-on's writes into linked data, so a linked character
+(object and mesh linked, no override) keeps the shape saved in its library, and its panel says
+so and how to make a library override; a library override deforms as the core says (its mesh
+stays linked: the offsets go into a local carrier, issue 16), and so does a local copy
+(appended, or made local). Binding linked data again is refused with a message. Nothing raises in the
 console, the source file is never written, and the file that links it saves and reopens."""
 
 import hashlib
@@ -88,12 +89,12 @@ def save_and_reopen(name):
 
 
 def assert_keeps_saved_shape(body, saved):
-    """The linked mesh is not written: it shows the shape saved in the library, the panel
+    """The linked object is not written: it shows the shape saved in the library, the panel
     says why and what to do; the binding's state is untouched."""
     bpy.context.view_layer.update()
     np.testing.assert_array_equal(helpers.evaluated_positions(body)[0], saved)
     e = helpers.sub("blender.deformer_cache").peek(body)
-    assert e is not None and "is linked from" in e.error and "Make Local" in e.error, e and e.error
+    assert e is not None and "is linked from" in e.error and "library override" in e.error, e and e.error
     assert body.sweep_deform.state == 'BOUND' and body.sweep_deform.message == ""
 
 
@@ -115,9 +116,10 @@ def test_linked_character():
     assert handler_failures() == before
 
 
-def test_library_override_made_local():
+def test_library_override_deforms():
     """The usual way to animate a linked character is a library override of its collection;
-    its mesh stays linked (the panel says so), and once made local it deforms."""
+    its mesh stays linked, and it deforms: the override's modifier gets a local carrier. Saved
+    and reopened it still deforms; made local it deforms too; the library is never written."""
     src, digest, saved = write_source("override_src.blend")
     before = handler_failures()
     linked = load_collection(src, link=True)
@@ -126,26 +128,33 @@ def test_library_override_made_local():
     assert body.override_library is not None and body.library is None and body.data.library is not None
     assert body.sweep_deform.armature == arm  # the pointer follows the override
     pose(arm, 1.2, 0.4)
-    assert_keeps_saved_shape(body, saved)
-    assert_bind_refused(body, "linked from")
-    # What the message says to do.
+    bpy.context.view_layer.update()
+    posed = check_equals_core(body, "override")
+    assert not np.array_equal(posed, saved)
+    e = helpers.sub("blender.deformer_cache").peek(body)
+    assert body.sweep_deform.state == 'BOUND' and not e.error, e.error
+    assert_bind_refused(body, "linked from")  # the binding itself is the library's
+
+    names, coll_name = (body.name, arm.name), coll.name
+    save_and_reopen("overrides_character.blend")
+    body, arm = (bpy.data.objects[n] for n in names)
+    assert body.override_library is not None and body.data.library is not None
+    pose(arm, 0.3, 1.3)
+    bpy.context.view_layer.update()
+    check_equals_core(body, "override, reopened")
+
+    # Made local (what older versions asked for) it deforms as well.
     for o in bpy.context.selected_objects:
         o.select_set(False)
     body.select_set(True)
     bpy.context.view_layer.objects.active = body
     assert bpy.ops.object.make_local(type='SELECT_OBDATA') == {'FINISHED'}
-    body, arm = members(coll)
+    body, arm = members(bpy.data.collections[coll_name])
     assert body.data.library is None
+    pose(arm, 0.9, 0.2)
     bpy.context.view_layer.update()
     check_equals_core(body, "made local")
     assert body.sweep_deform.state == 'BOUND' and not helpers.sub("blender.deformer_cache").peek(body).error
-
-    names = body.name, arm.name
-    save_and_reopen("overrides_character.blend")
-    body, arm = (bpy.data.objects[n] for n in names)
-    pose(arm, 0.3, 1.3)
-    bpy.context.view_layer.update()
-    check_equals_core(body, "made local, reopened")
     assert sha1(src) == digest
     assert handler_failures() == before
 

@@ -7,7 +7,7 @@ from . import binding, deformer_cache, modifier, persistence
 
 
 def set_rebind(obj, message):
-    """Marks the object 'REBIND' with `message` and removes its offsets."""
+    """Marks the object 'REBIND' with `message` and empties its carrier (the mesh shows undeformed)."""
     if binding.linked_reason(obj):
         # Library data is never written (Blender would not save it): the panel says why.
         deformer_cache.entry(obj).refuse(obj, message)
@@ -18,7 +18,7 @@ def set_rebind(obj, message):
     if s.message != message:
         s.message = message
     deformer_cache.forget(obj)
-    modifier.clear_offsets(obj.data)
+    modifier.clear_offsets(obj)
 
 
 def modifier_gone(obj):

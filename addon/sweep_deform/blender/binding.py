@@ -75,7 +75,7 @@ def find_armature(obj, name=""):
 
 def linked_reason(obj):
     """Why the object's binding cannot be changed in this file (its object or mesh is linked
-    from a library: the binding lives in the object, the offsets in the mesh; a linked
+    from a library: the binding lives in the object and was made for the mesh; a linked
     armature is fine), or None."""
     for what, data in ((f"'{obj.name}'", obj), (f"The mesh '{obj.data.name}'", obj.data)):
         if data is not None and data.library is not None:
@@ -118,21 +118,18 @@ def skin_weights(obj, arm, bone_names, slots=SKIN_SLOTS):
 
 def check_bindable(obj, arm):
     """Raises BindError saying why `obj` cannot get a binding to `arm` now (not a mesh, in
-    Edit Mode, linked, unusable transforms, a mesh shared with other objects)."""
+    Edit Mode, linked, unusable transforms). A mesh shared with other objects is fine: the
+    binding lives in the object, the offsets in the object's own carrier."""
     if obj.type != 'MESH':
         raise BindError(f"'{obj.name}' is not a mesh")
     if obj.mode == 'EDIT':
         raise BindError("Leave Edit Mode before binding")
-    mesh = obj.data
     linked = linked_reason(obj)
     if linked:
         raise BindError(f"{linked}: bind it in that file (a linked character keeps the binding it was saved with)")
     problem = checks.transforms_problem(obj.matrix_world, obj.name, arm.matrix_world, arm.name)
     if problem:
         raise BindError(f"{problem}: fix it before binding")
-    if mesh.users > 1:
-        raise BindError(f"The mesh '{mesh.name}' is used by {mesh.users} objects; the offsets live in "
-                        "the mesh, so make it single user first (Object > Relations > Make Single User)")
 
 
 def read_inputs(obj, arm):
@@ -237,6 +234,7 @@ def store(obj, arm, inp, out):
     md = modifier.find(obj)
     if md is None:
         md = modifier.ensure(obj, before=replaced)
+    modifier.carriers(obj, md, out.binding.vertex_count)  # zero offsets until the first frame
     deformer_cache.forget(obj)
     obj.update_tag()
     return md
@@ -266,4 +264,4 @@ def unbind(obj, restore_armature_modifier=True):
     s.message = ""
     deformer_cache.forget(obj)
     if obj.type == 'MESH':
-        modifier.clear_offsets(obj.data)
+        modifier.remove_carrier(obj)

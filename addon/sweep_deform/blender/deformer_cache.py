@@ -10,10 +10,12 @@ the depsgraph their own writes back (see handlers.py). Entries are keyed by obje
 bind id, so a new binding never meets an old entry.
 """
 
+import threading
+
 import numpy as np
 
 from ..core import arrays, fit_report, native
-from . import bound_objects, persistence
+from . import bound_objects, mesh_data, persistence
 
 _cache = {}
 
@@ -27,7 +29,10 @@ class Entry:
         self.error = ""
         self.load_error = ""  # why the stored binding could not be used (error may say more)
         self.deformer = None
-        self.key = None
+        self.written = {}  # carrier name -> the key of the state written into it
+        self.refused_key = None  # a state refused (unusable pose): not tried again
+        self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
+        self._packed = None
         self.settings = None
         self.labels = []
         self.frames = 0
@@ -116,6 +121,20 @@ class Entry:
         rest = arrays.gather_pose(rest, order)
         return rest.size == self.rest_pose.size and np.allclose(rest, self.rest_pose, rtol=0.0, atol=1e-5)
 
+    def packed_buffer(self, obj):
+        """(5V,3) float32, a carrier's blocks with the local linear maps (modifier.FRAME_BLOCKS):
+        offsets, the three rows of J - I, the mesh's rest positions (filled once, here)."""
+        if self._packed is None:
+            V = self.deformer.vertex_count
+            self._packed = np.empty((5 * V, 3), np.float32)
+            self._packed[4 * V:] = mesh_data.vertex_positions(obj.data)
+        return self._packed
+
+    def forget_writes(self):
+        """The next evaluation computes and writes again, whatever it finds."""
+        self.written.clear()
+        self.refused_key = None
+
     def refuse(self, obj, message):
         """A frame that cannot be deformed: nothing is written, the panel shows `message` (the
         entry's error) and the console gets it once (command-line renders have no panel)."""
@@ -179,4 +198,4 @@ def settings_changed(obj):
     """A volume setting changed: the next evaluation recomputes (the key includes them)."""
     e = peek(obj)
     if e is not None:
-        e.key = None
+        e.forget_writes()

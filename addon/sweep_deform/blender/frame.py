@@ -1,13 +1,14 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""One frame of one character: evaluated pose → core → offsets in the mesh's attribute.
+"""One frame of one character: evaluated pose → core → offsets in the object's carrier.
 
 :func:`evaluate` is what the handlers call for every bound mesh of the scene. It checks that
-the character can be deformed (bound, modifier on, not linked, topology and rest pose as
-bound, usable transforms), brings the cache entry's corrections and anatomical effects up to
-date, returns at once when the entry's key says this state is already written, and otherwise
-makes one call down (``sd_deform`` or ``sd_deform_with_anatomy``) and writes one buffer up
-(the offsets, through modifier.write_offsets). A frame that cannot be deformed writes nothing:
-the mesh keeps its last good deformation and the panel says why.
+the character can be deformed (bound, modifier on, object not linked, topology and rest pose
+as bound, usable transforms), brings the cache entry's corrections and anatomical effects up
+to date, returns at once when the entry's key says this state is already written, and
+otherwise makes one call down (``sd_deform`` or ``sd_deform_with_anatomy``) and writes one
+buffer up (the offsets, into the carrier through modifier.write_offsets; the character's
+mesh is never written). A frame that cannot be deformed writes nothing: the mesh keeps its
+last good deformation and the panel says why.
 """
 
 import numpy as np
@@ -19,16 +20,21 @@ from . import anatomy, bind_state, corrections, deformer_cache, modifier, persis
 KEPT = "the mesh keeps its last good deformation until this is fixed"
 
 
+#: Calls into the core for a frame (sd_deform or sd_deform_with_anatomy), all objects together:
+#: what the tests count to see that hidden or unchanged characters cost nothing.
+core_calls = 0
+
+
 def linked_mesh_message(obj):
-    """Why a linked mesh is not deformed (None if the mesh is local). Blender ignores an
-    add-on's writes into library data, so the offsets cannot go into it."""
-    lib = obj.data.library
+    """Why a linked object is not deformed (None if the object is local or a library
+    override). Its modifier, and the carrier it points at, are library data, which Blender
+    does not let an add-on change, so it shows the shape saved in that file."""
+    lib = obj.library
     if lib is None:
         return None
-    return (f"The mesh '{obj.data.name}' is linked from '{lib.filepath}': Sweep Deform cannot write its "
-            "deformation into linked data, so it shows the shape saved in that file. To animate it here, make "
-            "it local (Object > Relations > Make Local > Selected Objects and Data), or a library override "
-            "of it first")
+    return (f"The object '{obj.name}' is linked from '{lib.filepath}': Sweep Deform cannot change linked data, "
+            "so it shows the shape saved in that file. To animate it here, make a library override of it "
+            "(Object > Library Override > Make), or make it local")
 
 
 def evaluate(obj, depsgraph, render=False):
@@ -50,14 +56,17 @@ def evaluate(obj, depsgraph, render=False):
     if linked:
         deformer_cache.entry(obj).refuse(obj, linked)
         return False
-    if obj.data.users > 1:
-        bind_state.set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single "
-                                   "user and bind again")
-        return False
     if not persistence.counts_match(obj):
         bind_state.set_rebind(obj, "The mesh's topology changed after binding: bind again")
         return False
     e = deformer_cache.entry(obj)
+    # A render thread (Lock Interface off) and the viewport may evaluate the same character at
+    # once: the entry's buffers (pose, offsets, the deformer's output) serve one at a time.
+    with e.lock:
+        return _evaluate_entry(obj, s, md, arm, e, depsgraph, render)
+
+
+def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     if e.deformer is None:
         if e.unusable:
             bind_state.set_rebind(obj, f"The stored binding cannot be used ({e.load_error}): bind again")
@@ -77,7 +86,7 @@ def evaluate(obj, depsgraph, render=False):
     problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
     if problem:
         e.refuse(obj, f"{problem}: {KEPT}")
-        e.key = None
+        e.forget_writes()
         return False
     # Offsets are vectors: only the linear part of mesh → armature space maps them back.
     try:
@@ -85,7 +94,7 @@ def evaluate(obj, depsgraph, render=False):
         to_mesh = e.to_mesh_space(linear)
     except (ValueError, np.linalg.LinAlgError):  # flat in float32 though not quite in float64
         e.refuse(obj, f"The object '{obj.name}' or its armature has a zero scale: {KEPT}")
-        e.key = None
+        e.forget_writes()
         return False
     settings = (bool(s.use_volume_preservation), float(s.volume_strength))
     # Corrections: in the viewport from the object itself (Blender copies animated and driven
@@ -93,31 +102,63 @@ def evaluate(obj, depsgraph, render=False):
     # render from the render depsgraph's copy, which holds that frame's animated values.
     corrections_key = corrections.sync_corrections(e, obj_eval.sweep_deform if render else s)
     anatomy_key = anatomy.sync_anatomy(e, obj, obj_eval.sweep_deform if render else s)
+    # Shape keys or modifiers before Sweep Deform ride along through each vertex's local linear
+    # map (not with the anatomical effects, which stay position-based).
+    with_frames = e.anatomy is None and modifier.needs_frames(obj, md, render)
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
-           corrections_key, anatomy_key)
-    if key == e.key and arrays.OFFSET_ATTRIBUTE in obj.data.attributes:
-        return False  # already written (an attribute removed by someone else is written again)
+           corrections_key, anatomy_key, with_frames)
+    # The object's own carriers (made here for a copy of a bound object, a library override or
+    # a file bound by an older version; not during a render, which cannot add data). A render
+    # writes the render carrier (every render path runs frame_change_post with its depsgraph,
+    # F12 included), the viewport its own: neither overwrites what the other reads.
+    n = e.deformer.vertex_count
+    count = n * (modifier.FRAME_BLOCKS if with_frames else 1)
+    if render:
+        targets = [modifier.carrier(obj, md, count, create=False, render=True)]
+    else:
+        targets = modifier.carriers(obj, md, count)[:1]  # the render's is made too, for renders to come
+    if any(c is None for c, _ in targets):
+        e.refuse(obj, "Sweep Deform has no place for this object's deformation yet: it is made at the next "
+                      f"update in the viewport; {KEPT}")
+        return False
+    if key == e.refused_key or all(not fresh and e.written.get(c.name) == key for c, fresh in targets):
+        return False  # already written (a new carrier is written again), or refused
     if settings != e.settings:
         e.deformer.set_volume_preservation(*settings)
         e.settings = settings
+    global core_calls
+    core_calls += 1
     try:
+        frames = None
         if e.anatomy is not None:
             deformed = e.anatomy.deform(e.deformer, pose)
             e.anatomy_stats = e.anatomy.stats()
+        elif with_frames:
+            # J straight into the carrier's blocks 1..3 (no copy)
+            packed = e.packed_buffer(obj)
+            frames = packed[n:4 * n].reshape(3, n, 3)
+            deformed, _ = e.deformer.deform_frames(pose, e.deformer.positions, frames)
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
         e.refuse(obj, f"Unusable pose: {checks.name_bones(str(err), e.bone_names)}: {KEPT}")
-        e.key = key
+        e.refused_key = key
         return False
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+    if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
+        packed[:n] = offsets
+        arrays.pack_frames(frames, linear, to_mesh)
+        offsets = packed
     if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
-        e.key = key
+        e.refused_key = key
         return False
-    modifier.write_offsets(obj.data, offsets)
-    e.last_pose = pose.copy()  # the overlay and key edits follow the pose the mesh shows
-    e.key = key
+    for c, _ in targets:
+        modifier.write_offsets(c, offsets)
+        e.written[c.name] = key
+    if not render:
+        e.last_pose = pose.copy()  # the overlay and key edits follow the pose the viewport shows
+    e.refused_key = None
     e.error = ""
     e.frames += 1
     return True

@@ -7,7 +7,8 @@ When offsets are written (measured in Blender 4.3 and 5.2, see docs/addon.md):
   drivers), property changes, undo. It does not fire during renders.
 * ``frame_change_post(scene, depsgraph)`` — playback, ``frame_set``, F12 and ``blender -b -a``.
   In a render its ``depsgraph`` is the render depsgraph, so the pose is the one being rendered;
-  a write there is picked up by that very frame's render.
+  the write goes into the object's *render* carrier and is picked up by that very frame's
+  render, while the viewport keeps its own carrier (see modifier.py).
 
 No feedback loop: a write tags the mesh, and Blender evaluates it again in a second pass of
 the same update *without* calling the handlers again; and :func:`frame.evaluate` writes
@@ -31,6 +32,29 @@ _modes = {}
 _reported = set()
 
 
+def shows(obj, depsgraph, render):
+    """Whether this evaluation needs the object; one that it does not need costs nothing, and
+    showing it again is an update, which evaluates it for the current pose.
+
+    * Not in the depsgraph at all (disabled in viewports or excluded and used by nothing; in a
+      render, ``hide_render`` and used by nothing; not in the view layer): not needed.
+    * Visible in the depsgraph's view layer: needed.
+    * In the depsgraph though not visible: Blender put it there because something uses it (a
+      Surface Deform or Shrinkwrap target, a constraint target), so it is needed; except when
+      the object itself is hidden (H, the eye), which Blender keeps in the depsgraph whether used
+      or not: not needed (disable it in viewports instead to hide a character others use)."""
+    if depsgraph is None:
+        return True
+    try:
+        if obj.evaluated_get(depsgraph) == obj:
+            return False  # the original: this depsgraph does not hold it
+        if render or obj.visible_get(view_layer=depsgraph.view_layer):
+            return True
+        return not obj.hide_get(view_layer=depsgraph.view_layer)
+    except (RuntimeError, TypeError, ReferenceError):
+        return True
+
+
 def evaluate_scene(scene, depsgraph, render=False):
     """Updates every bound character of the scene. Returns how many were rewritten."""
     written = 0
@@ -45,8 +69,8 @@ def evaluate_scene(scene, depsgraph, render=False):
             if _modes.get(key) == 'EDIT' and arm.mode != 'EDIT':
                 deformer_cache.forget_armature(arm)
             _modes[key] = arm.mode
-        if render and obj.hide_render:
-            continue
+        if not shows(obj, depsgraph, render):
+            continue  # costs nothing; evaluated when it shows again (that is an update too)
         try:
             written += frame.evaluate(obj, depsgraph, render)
         except ReferenceError:
@@ -84,6 +108,9 @@ def on_load_post(*_args):
         modifier.node_group()  # bring an older layout up to date
     for scene in bpy.data.scenes:
         for obj in bound_objects.in_scene(scene):
+            # Files bound by layout version 1 kept the offsets in the mesh: they go (once, at
+            # load); the object gets its carrier at its first evaluation.
+            modifier.remove_offset_attribute(obj.data)
             if obj.sweep_deform.state == 'BOUND':
                 bind_state.check_topology(obj)
 

@@ -135,6 +135,21 @@ def offsets_into(deformed, rest, to_mesh, out, scratch):
     return scratch
 
 
+def pack_frames(frames, linear, to_mesh):
+    """Turns the core's local linear maps, written in place as the carrier's blocks 1..3
+    (`frames` (3,V,3): frames[r, v] row r of vertex v's J, armature space, acting on column
+    vectors), into the rows of J - I in mesh space: L^-1 J L - I, with L the linear part of
+    mesh → armature (`linear`, 3x3) and `to_mesh` = (L^-1)^T as offsets_into takes it (None: L
+    is the identity, nothing to turn). Returns `frames`."""
+    if to_mesh is not None:
+        lin = np.asarray(linear, dtype=np.float32).reshape(3, 3)
+        j = np.matmul(np.matmul(np.ascontiguousarray(to_mesh.T), frames.transpose(1, 0, 2)), lin)
+        np.copyto(frames, j.transpose(1, 0, 2))
+    for row in range(3):
+        frames[row, :, row] -= 1.0
+    return frames
+
+
 # ---- volume display ----------------------------------------------------------------------
 
 

@@ -165,6 +165,7 @@ SIGNATURES = {
     "sd_deformer_set_volume_preservation": (Status, [DeformerP, c_int32, c_float]),
     "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32]),
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
+    "sd_deform_frames": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT, F32_OUT]),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
     # measurements (reports and tests)
@@ -590,6 +591,19 @@ class Deformer(_Handle):
             raise ValueError(f"out must hold {3 * self.vertex_count} float32 values")
         _call("sd_deform", self.ptr, self.bone_count, np.ascontiguousarray(pose), self.vertex_count, out)
         return out
+
+    def deform_frames(self, pose, out, frames):
+        """sd_deform_frames: the positions into `out` (V,3) and each vertex's local linear map J
+        into `frames` (3,V,3): frames[r, v] is row r of vertex v's J, armature space; both
+        float32 and contiguous. Returns (out, frames)."""
+        if pose.dtype != np.float32 or pose.size != 16 * self.bone_count:
+            raise ValueError(f"pose must be {16 * self.bone_count} float32 values")
+        if out.size != 3 * self.vertex_count or frames.size != 9 * self.vertex_count:
+            raise ValueError(f"out and frames must hold {3 * self.vertex_count} and {9 * self.vertex_count} "
+                             "float32 values")
+        _call("sd_deform_frames", self.ptr, self.bone_count, np.ascontiguousarray(pose), self.vertex_count, out,
+              frames)
+        return out, frames
 
     def volumes(self):
         """(rest, before, after) float64 #S of the last frame."""

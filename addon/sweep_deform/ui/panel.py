@@ -17,6 +17,20 @@ def _relevant(obj):
         modifier.find(obj) is not None or obj.sweep_deform.state != 'UNBOUND')
 
 
+def vertex_count_problem(context, obj):
+    """The panel's message when a modifier before Sweep Deform changes (or may change) the
+    vertex count (the modifier then passes the geometry through unchanged), else None."""
+    s = obj.sweep_deform
+    md = modifier.find(obj)
+    if md is None or s.state != 'BOUND':
+        return None
+    try:
+        count = len(obj.evaluated_get(context.view_layer.depsgraph).data.vertices)
+    except (AttributeError, RuntimeError, ReferenceError):
+        count = None
+    return modifier.count_problem(obj, md, s.vertex_count, count)
+
+
 class OBJECT_PT_sweep_deform(bpy.types.Panel):
     bl_label = "Sweep Deform"
     bl_space_type = 'PROPERTIES'
@@ -67,6 +81,13 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
             box = layout.box()
             box.alert = True
             for line in _wrap(e.error):
+                box.label(text=line)
+        problem = vertex_count_problem(context, obj)
+        if problem:
+            box = layout.box()
+            box.alert = True
+            box.label(text="Vertex count changed before Sweep Deform", icon='ERROR')
+            for line in _wrap(problem):
                 box.label(text=line)
 
         row = layout.row(align=True)

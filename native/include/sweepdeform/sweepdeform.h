@@ -184,6 +184,19 @@ SD_API sd_status sd_deform(sd_deformer* deformer, int32_t bone_count, const floa
                            float* out_positions);
 
 /*
+ * sd_deform, and for every vertex the local linear map J of its deformation:
+ *  out_frames  #V*9: three blocks of #V*3, block r holding row r of every vertex's 3x3 J
+ *              (out_frames[r*3V + 3v + c] = J_v[r][c]), armature space: Σ_sweeps w R(u) R_rest(u)^T (the
+ *              rotation of the vertex's cross-section frame from rest to the pose) + Σ_bones w
+ *              M_b (linear part), blended with the weights the positions are. A point moved off
+ *              the rest surface by d within its cross-section's plane deforms to out + J d; a
+ *              caller carries shape keys and earlier deformations along with
+ *              out + J (incoming - rest). The rest pose gives the identity.
+ */
+SD_API sd_status sd_deform_frames(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
+                                  float* out_positions, float* out_frames);
+
+/*
  * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.
  * Each array #S (any may be NULL), units^3.
  */

@@ -67,6 +67,22 @@ sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32
     });
 }
 
+sd_status sd_deform_frames(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
+                           float* out_positions, float* out_frames) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && pose && out_positions && out_frames, "deformer, pose, out_positions or out_frames is NULL");
+        if (bone_count != d->deformer->rig().skeleton.bone_count())
+            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
+                                             std::to_string(d->deformer->rig().skeleton.bone_count()));
+        if (vertex_count != d->deformer->vertex_count())
+            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
+                                             " differs from the binding's " +
+                                             std::to_string(d->deformer->vertex_count()));
+        d->deformer->deform_frames(pose, out_positions, out_frames);
+        return SD_OK;
+    });
+}
+
 sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, double* rest, double* before,
                                   double* after) {
     return guarded(__func__, [&] {

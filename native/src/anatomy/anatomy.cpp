@@ -296,6 +296,9 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
 }
 
 void Anatomy::deform(Deformer& d, const float* pose, float* out) {
+    // The passes set the deformer's volume offsets and deform: kept together, and this
+    // anatomy's own per-frame state with them, against another thread using the same deformer.
+    const auto guard = d.lock();
     if (d.vertex_count() != vertex_count() || d.rig().sweeps.size() != rig_.sweeps.size() ||
         d.rig().skeleton.bone_count() != rig_.skeleton.bone_count())
         throw InvalidInput("the deformer was made for another rig or mesh");

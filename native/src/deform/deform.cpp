@@ -5,6 +5,14 @@
 #include <algorithm>
 #include <cmath>
 
+#include <glm/gtc/quaternion.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <array>
+#include <cmath>
+
 namespace sd {
 
 namespace {
@@ -57,15 +65,27 @@ Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(st
     volume_before.assign(rig_.sweeps.size(), 0.0);
     volume_after.assign(rig_.sweeps.size(), 0.0);
     volume_iterations.assign(rig_.sweeps.size(), 0);
+    // The frames the binding was made in: the uncorrected sweeps at rest.
+    SkeletonPose rest;
+    rest.set_rest(rig_.skeleton);
+    std::vector<dvec3> centers;
+    std::vector<dquat> rotations;
+    for (const Sweep& s : rig_.sweeps) {
+        pose_keys(s, rest, centers, rotations);
+        rest_key_rotations_.push_back(SweepGeometry(centers, rotations).key_rotations());
+    }
+    key_rotations_ = rest_key_rotations_;
 }
 
 void Deformer::set_volume_preservation(bool enabled, double strength) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
     if (!(strength >= 0.0 && strength <= 1.0)) throw InvalidInput("volume preservation strength must be in [0, 1]");
     volume_enabled_ = enabled;
     volume_strength_ = strength;
 }
 
 void Deformer::set_volume_offsets(const std::vector<double>& offsets) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
     if (offsets.size() != rig_.sweeps.size()) throw InvalidInput("one volume offset per sweep is needed");
     for (size_t s = 0; s < offsets.size(); ++s) {
         // The target V0 - offset must stay a plausible volume: 10 % .. 10x the rest volume.
@@ -90,6 +110,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         const SweepGeometry g(centers, rotations);
         if (s.bends_smoothly && volume_enabled_ && volume_strength_ > 0.0)
             restore_local_volume(s, g, volume_strength_, a, b);
+        key_rotations_[si] = g.key_rotations();
 
         // Volume control (Sect. 4.4) on the key half-axes.
         const VolumeForm form(s.quadrature, volume_density(s.quadrature, g));
@@ -145,11 +166,103 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
 }
 
 void Deformer::deform(const float* pose, float* out) {
-    pose_.set(rig_.skeleton, pose);
-    prepare_sweeps(pose_);
-    bones_ = bone_affines(pose_);
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
+    // Isolated: while this thread waits for the kernel's tasks it must not pick up an outer
+    // task that could enter this deformer again (the lock is recursive, the scratch is not).
+    tbb::this_task_arena::isolate([&] {
+        pose_.set(rig_.skeleton, pose);
+        prepare_sweeps(pose_);
+        bones_ = bone_affines(pose_);
+        kernel_.run(half_spans_.data(), bones_.data(), binding_, out);
+    });
+}
 
-    kernel_.run(half_spans_.data(), bones_.data(), binding_, out);
+namespace {
+
+using Quat = std::array<float, 4>;  // x, y, z, w
+
+/// Every key rotation of every sweep in float, flattened, with each sweep's first index.
+void flatten(const std::vector<std::vector<dquat>>& keys, std::vector<Quat>& out, std::vector<int>& first) {
+    out.clear();
+    first.clear();
+    for (const auto& sweep : keys) {
+        first.push_back(static_cast<int>(out.size()));
+        for (const dquat& q : sweep)
+            out.push_back(
+                {static_cast<float>(q.x), static_cast<float>(q.y), static_cast<float>(q.z), static_cast<float>(q.w)});
+    }
+}
+
+/// Q(u) = (1-u) q0 + u q1 of a span's key rotations, normalised, as the kernel blends them.
+Quat blend(const Quat& q0, const Quat& q1, float u) {
+    Quat q;
+    float n = 0.0f;
+    for (int i = 0; i < 4; ++i) {
+        q[i] = q0[i] + u * (q1[i] - q0[i]);
+        n += q[i] * q[i];
+    }
+    const float inv = 1.0f / std::sqrt(n);
+    for (float& c : q) c *= inv;
+    return q;
+}
+
+}  // namespace
+
+void Deformer::deform_frames(const float* pose, float* out, float* frames) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
+    deform(pose, out);
+    const auto& influences = binding_.sweep_influences;
+    std::vector<Quat> keys;
+    std::vector<int> first;
+    if (rest_inverse_.size() != influences.size()) {  // once per deformer: conj(Q_rest(u))
+        flatten(rest_key_rotations_, keys, first);
+        rest_inverse_.resize(influences.size());
+        for (size_t i = 0; i < influences.size(); ++i) {
+            const SweepInfluence& in = influences[i];
+            const int k = first[in.sweep] + in.span;
+            const Quat q = blend(keys[k], keys[k + 1], in.u);
+            rest_inverse_[i] = {-q[0], -q[1], -q[2], q[3]};
+        }
+    }
+    flatten(key_rotations_, keys, first);
+    tbb::this_task_arena::isolate([&] {
+        tbb::parallel_for(tbb::blocked_range<int>(0, vertex_count(), 2048), [&](const tbb::blocked_range<int>& r) {
+            for (int v = r.begin(); v != r.end(); ++v) {
+                float j[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};  // row-major
+                for (uint32_t i = binding_.sweep_offsets[v]; i < binding_.sweep_offsets[v + 1]; ++i) {
+                    const SweepInfluence& in = influences[i];
+                    const int key = first[in.sweep] + in.span;
+                    const Quat p = blend(keys[key], keys[key + 1], in.u);
+                    const auto& c = rest_inverse_[i];
+                    // q = Q(u) Q_rest(u)^-1, then its rotation matrix, weighted.
+                    const float x = p[3] * c[0] + p[0] * c[3] + p[1] * c[2] - p[2] * c[1];
+                    const float y = p[3] * c[1] - p[0] * c[2] + p[1] * c[3] + p[2] * c[0];
+                    const float z = p[3] * c[2] + p[0] * c[1] - p[1] * c[0] + p[2] * c[3];
+                    const float w = p[3] * c[3] - p[0] * c[0] - p[1] * c[1] - p[2] * c[2];
+                    const float k = in.weight;
+                    j[0][0] += k * (1 - 2 * (y * y + z * z));
+                    j[0][1] += k * 2 * (x * y - w * z);
+                    j[0][2] += k * 2 * (x * z + w * y);
+                    j[1][0] += k * 2 * (x * y + w * z);
+                    j[1][1] += k * (1 - 2 * (x * x + z * z));
+                    j[1][2] += k * 2 * (y * z - w * x);
+                    j[2][0] += k * 2 * (x * z - w * y);
+                    j[2][1] += k * 2 * (y * z + w * x);
+                    j[2][2] += k * (1 - 2 * (x * x + y * y));
+                }
+                for (uint32_t i = binding_.bone_offsets[v]; i < binding_.bone_offsets[v + 1]; ++i) {
+                    const BoneInfluence& in = binding_.bone_influences[i];
+                    const Affine3x4& m = bones_[in.bone];
+                    for (int rr = 0; rr < 3; ++rr)
+                        for (int c = 0; c < 3; ++c) j[rr][c] += in.weight * m.m[rr][c];
+                }
+                // Three blocks of #V*3: block r holds row r of every vertex's J.
+                const size_t block = 3 * static_cast<size_t>(vertex_count());
+                for (int rr = 0; rr < 3; ++rr)
+                    for (int c = 0; c < 3; ++c) frames[rr * block + 3 * static_cast<size_t>(v) + c] = j[rr][c];
+            }
+        });
+    });
 }
 
 }  // namespace sd

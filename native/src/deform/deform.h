@@ -8,6 +8,8 @@
 #include "rig/rig.h"
 #include "deform/sweep_kernel.h"
 
+#include <array>
+#include <mutex>
 #include <vector>
 
 namespace sd {
@@ -19,6 +21,11 @@ namespace sd {
 void restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b);
 
+/// Thread safety: every member that reads or writes the per-frame state (deform, the
+/// setters) holds the deformer's lock, so two threads may call them on the same deformer at
+/// once (a render and the viewport): the calls run one after the other, each with the
+/// settings it was given. A caller that must keep several calls together (set offsets, then
+/// deform) holds lock() around them; the lock is recursive.
 class Deformer {
 public:
     /// @throws InvalidInput if the binding does not fit the rig.
@@ -29,11 +36,26 @@ public:
     void set_volume_offsets(const std::vector<double>& offsets);
     /// Replaces the key-ellipse corrections (Sect. 4.2) of the deformer's rig; the binding
     /// stays valid (it was made against the uncorrected rest sweeps). @throws InvalidInput
-    void set_corrections(const std::vector<CorrectionRecord>& records) { rig_.set_corrections(records); }
+    void set_corrections(const std::vector<CorrectionRecord>& records) {
+        const std::lock_guard<std::recursive_mutex> guard(mutex_);
+        rig_.set_corrections(records);
+    }
+
+    /// Holds the deformer for a sequence of calls (see the class comment).
+    std::unique_lock<std::recursive_mutex> lock() const { return std::unique_lock<std::recursive_mutex>(mutex_); }
 
     /// @param pose  #B*16 column-major posed bone matrices. @throws InvalidInput
     /// @param out   #V*3 deformed positions
     void deform(const float* pose, float* out);
+
+    /// deform(), and for every vertex the local linear map J of its deformation (#V*9 floats
+    /// in three blocks of #V*3, block r holding row r of every vertex's J; armature space): Σ_sweeps w R(u) R_rest(u)^T + Σ_bones w M_b (linear
+    /// part), blended with the weights the positions are. R(u) is the frame of the vertex's
+    /// cross-section at its sweep parameter u in the pose, R_rest(u) at rest: a point moved off
+    /// the rest surface by δ within its cross-section's plane deforms to out + J δ (the
+    /// cross-section's half-axis changes of the volume control are added, not scaled, so they
+    /// do not enter J). The rest pose gives the identity.
+    void deform_frames(const float* pose, float* out, float* frames);
 
     const Rig& rig() const { return rig_; }
     const Binding& binding() const { return binding_; }
@@ -54,10 +76,14 @@ private:
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
 
-    // Kept from frame to frame: the posed skeleton, the half-spans' coefficients (sized once,
-    // in the constructor) and the bones' affine maps. A frame still allocates: bone_affines()
-    // returns a new vector, and prepare_sweeps() builds per sweep the posed keys, the
-    // half-axes, the sweep's geometry and volume form, and the half-axis changes.
+    std::vector<std::vector<dquat>> rest_key_rotations_;  // per sweep, uncorrected rest keys
+    std::vector<std::vector<dquat>> key_rotations_;       // per sweep, of the last frame
+    std::vector<std::array<float, 4>> rest_inverse_;      // per sweep influence: Q_rest(u)^-1
+    mutable std::recursive_mutex mutex_;
+    // Kept from frame to frame (guarded by mutex_): the posed skeleton, the half-spans'
+    // coefficients (sized once, in the constructor) and the bones' affine maps. A frame still
+    // allocates: bone_affines() returns a new vector, and prepare_sweeps() builds per sweep the
+    // posed keys, the half-axes, the sweep's geometry and volume form, and the half-axis changes.
     SkeletonPose pose_;
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;

@@ -182,6 +182,24 @@ TEST(CApi, InvalidPosesAreRefusedAndLeaveTheOutputAlone) {
     for (float x : out) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
     ASSERT_EQ(sd_deform(d, 3, arm.rest.data(), V, out.data()), SD_OK);
     for (int i = 0; i < 3 * V; ++i) ASSERT_NEAR(out[i], arm.mesh[i], 1e-6);
+    // sd_deform_frames: the same checks, both outputs left alone; at rest J is the identity.
+    std::vector<float> pos(3 * V, 42.0f), frames(9 * V, 42.0f);
+    pose = arm.rest;
+    pose[13] = kNaN;
+    expect_error(sd_deform_frames(d, 3, pose.data(), V, pos.data(), frames.data()), SD_ERR_INVALID_ARGUMENT,
+                 "NaN pose");
+    expect_error(sd_deform_frames(d, 2, arm.rest.data(), V, pos.data(), frames.data()), SD_ERR_MISMATCH, "bone count");
+    expect_error(sd_deform_frames(d, 3, arm.rest.data(), V - 1, pos.data(), frames.data()), SD_ERR_MISMATCH,
+                 "vertex count");
+    expect_error(sd_deform_frames(d, 3, arm.rest.data(), V, pos.data(), nullptr), SD_ERR_INVALID_ARGUMENT,
+                 "NULL frames");
+    for (float x : pos) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    for (float x : frames) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    ASSERT_EQ(sd_deform_frames(d, 3, arm.rest.data(), V, pos.data(), frames.data()), SD_OK) << sd_last_error();
+    EXPECT_EQ(pos, out);
+    for (int r = 0; r < 3; ++r)  // block r: row r of every vertex's J
+        for (int v = 0; v < V; ++v)
+            for (int c = 0; c < 3; ++c) ASSERT_NEAR(frames[3 * (r * V + v) + c], r == c ? 1.0f : 0.0f, 1e-6f);
     sd_deformer_destroy(d);
     sd_binding_destroy(b);
 }

@@ -8,6 +8,10 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <atomic>
+#include <cstdio>
+#include <thread>
+
 namespace sd {
 namespace {
 
@@ -159,6 +163,88 @@ TEST(Deform, ResultDoesNotDependOnTheThreadCount) {
         d.deform(pose.data(), two.data());
     }
     EXPECT_EQ(one, two);
+}
+
+TEST(Deform, FramesMatchFiniteDifferencesOfPointsMovedOffTheSurface) {
+    // Every vertex moved off the rest surface within its cross-section's plane (radially, by
+    // 1 % of its distance to the axis), bound anew and deformed: the move it makes equals
+    // J δ, for a bent elbow with a twist and the volume control on.
+    const test::Arm arm(0.1, 0.07, 49, 32);
+    Deformer d(arm.rig, arm.bind());
+    const int V = arm.vertex_count();
+    std::vector<float> moved = arm.mesh;
+    const float eps = 0.01f;
+    for (int v = 0; v < V; ++v) {
+        moved[3 * v + 1] *= 1.0f + eps;
+        moved[3 * v + 2] *= 1.0f + eps;
+    }
+    std::vector<int32_t> ids(V, 0);
+    std::vector<float> w(V, 1.0f);
+    Deformer dm(arm.rig, bind_vertices(arm.rig, V, moved.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr));
+    std::vector<float> rest_out(arm.mesh.size()), rest_frames(9 * static_cast<size_t>(V));
+    d.deform_frames(arm.pose(0.0).data(), rest_out.data(), rest_frames.data());
+    // J_v[r][c] = frames[r * 3V + 3v + c]
+    auto at = [V](const std::vector<float>& f, int v, int r, int c) {
+        return f[3 * (static_cast<size_t>(r) * V + v) + c];
+    };
+    for (int v = 0; v < V; ++v)
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) ASSERT_NEAR(at(rest_frames, v, r, c), r == c ? 1.0f : 0.0f, 1e-6f) << v;
+
+    const auto pose = arm.pose(glm::radians(90.0), 0.6);
+    std::vector<float> out(arm.mesh.size()), out_moved(arm.mesh.size()), frames(9 * static_cast<size_t>(V));
+    std::vector<float> plain(arm.mesh.size());
+    d.deform(pose.data(), plain.data());
+    d.deform_frames(pose.data(), out.data(), frames.data());
+    EXPECT_EQ(out, plain);  // the positions are deform()'s
+    dm.deform(pose.data(), out_moved.data());
+    double worst = 0.0, largest_turn = 0.0;
+    for (int v = 0; v < V; ++v) {
+        const float delta[3] = {moved[3 * v] - arm.mesh[3 * v], moved[3 * v + 1] - arm.mesh[3 * v + 1],
+                                moved[3 * v + 2] - arm.mesh[3 * v + 2]};
+        double err = 0.0, size = 0.0;
+        for (int r = 0; r < 3; ++r) {
+            const double predicted =
+                at(frames, v, r, 0) * delta[0] + at(frames, v, r, 1) * delta[1] + at(frames, v, r, 2) * delta[2];
+            const double actual = double(out_moved[3 * v + r]) - out[3 * v + r];
+            err += (predicted - actual) * (predicted - actual);
+            size += double(delta[r]) * delta[r];
+        }
+        worst = std::max(worst, std::sqrt(err / size));
+        largest_turn = std::max(largest_turn, 1.0 - double(at(frames, v, 0, 0)));  // how far J is from the identity
+    }
+    std::printf("frames against finite differences: worst |J d - moved| / |d| = %.2e\n", worst);
+    EXPECT_LT(worst, 1e-3) << "|J d - (deformed moved - deformed)| / |d|";
+    EXPECT_GT(largest_turn, 0.9);  // the forearm's cross-sections turned by about 90°
+}
+
+TEST(Deform, ConcurrentCallsOnOneDeformerGiveTheSerialResults) {
+    // A render thread and the viewport may deform the same character at once: each call must
+    // get the result of its own pose and settings, as if the calls had run one after another.
+    const test::Arm arm(0.1, 0.07, 200, 48);
+    Deformer d(arm.rig, arm.bind());
+    const int kPoses = 6;
+    std::vector<std::vector<float>> poses, serial;
+    for (int i = 0; i < kPoses; ++i) {
+        poses.push_back(arm.pose(glm::radians(20.0 * i), 0.3 * i));
+        serial.emplace_back(arm.mesh.size());
+        d.deform(poses[i].data(), serial[i].data());
+    }
+    for (int i = 1; i < kPoses; ++i) ASSERT_NE(serial[i], serial[0]);
+    std::atomic<int> mismatches{0};
+    auto worker = [&](int first) {
+        std::vector<float> out(arm.mesh.size());
+        for (int round = 0; round < 120; ++round) {
+            const int i = (first + round) % kPoses;
+            d.deform(poses[i].data(), out.data());
+            if (out != serial[i]) ++mismatches;
+        }
+    };
+    std::thread a(worker, 0), b(worker, 3), c(worker, 5);
+    a.join();
+    b.join();
+    c.join();
+    EXPECT_EQ(mismatches.load(), 0);
 }
 
 }  // namespace

@@ -1,0 +1,509 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The modifier in full (issue 16): the per-frame offsets live in a hidden carrier object per
+bound object, never in the character's mesh; linked duplicates each deform with their own
+armature; characters that do not show cost nothing; a modifier before Sweep Deform that
+changes the vertex count is reported and passed through; the core is safe to call from two
+threads at once."""
+
+import hashlib
+import threading
+import time
+
+import bpy
+import numpy as np
+
+import helpers
+from test_bad_input import handler_failures
+from test_deform import check_equals_core
+
+_FIELDS = {'FLOAT': 'value', 'INT': 'value', 'BOOLEAN': 'value', 'INT8': 'value', 'FLOAT_VECTOR': 'vector',
+           'FLOAT2': 'vector', 'FLOAT_COLOR': 'color', 'BYTE_COLOR': 'color', 'QUATERNION': 'value'}
+
+
+def mesh_digest(mesh):
+    """SHA-1 of the mesh datablock's vertex positions and every attribute (name, domain, type,
+    values), and of its shape keys."""
+    h = hashlib.sha1()
+    co = np.empty(len(mesh.vertices) * 3, np.float32)
+    mesh.vertices.foreach_get("co", co)
+    h.update(co.tobytes())
+    for attr in sorted(mesh.attributes, key=lambda a: a.name):
+        h.update(f"{attr.name}/{attr.domain}/{attr.data_type}".encode())
+        field = _FIELDS.get(attr.data_type)
+        if field is None or len(attr.data) == 0:
+            continue
+        width = {'vector': 3 if attr.data_type == 'FLOAT_VECTOR' else 2, 'color': 4}.get(field, 1)
+        if attr.data_type == 'QUATERNION':
+            width = 4
+        dtype = np.float32 if attr.data_type not in ('INT', 'BOOLEAN', 'INT8') else np.int32
+        values = np.empty(len(attr.data) * width, dtype if attr.data_type != 'BOOLEAN' else bool)
+        attr.data.foreach_get(field, values)
+        h.update(values.tobytes())
+    if mesh.shape_keys is not None:
+        for kb in mesh.shape_keys.key_blocks:
+            data = np.empty(len(kb.data) * 3, np.float32)
+            kb.data.foreach_get("co", data)
+            h.update(kb.name.encode() + data.tobytes())
+    return h.hexdigest()
+
+
+def animate_elbows(char, frames_angles):
+    """Keys elbows and knees (the file's own animation goes first)."""
+    arm = char.armature
+    arm.animation_data_clear()
+    for frame, angle in frames_angles:
+        helpers.pose_limbs(char, elbow=angle, knee=0.5 * angle)
+        for n in char.elbows + char.knees:
+            arm.pose.bones[n].keyframe_insert("rotation_euler", frame=frame)
+
+
+def core_calls():
+    return helpers.sub("blender.frame").core_calls
+
+
+def test_playback_leaves_the_mesh_untouched():
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    scene = bpy.context.scene
+    animate_elbows(char, ((1, 0.0), (50, 1.4), (100, 0.2)))
+    scene.frame_set(1)
+    mesh = obj.data
+    before = mesh_digest(mesh)
+    names = set(mesh.attributes.keys())
+    calls = core_calls()
+    seen = {}
+    for f in range(1, 101):
+        scene.frame_set(f)
+        if f in (1, 37, 50, 100):
+            seen[f] = check_equals_core(obj, f"frame {f}")
+    assert core_calls() - calls >= 90  # the frames were deformed, through the core
+    assert not np.allclose(seen[1], seen[50])
+    assert mesh_digest(mesh) == before, "playing wrote into the character's mesh"
+    assert set(mesh.attributes.keys()) == names and "sweep_deform_offset" not in names
+    # The offsets are in the object's own carriers (viewport, render), in no collection.
+    modifier = helpers.sub("blender.modifier")
+    for render in (False, True):
+        carrier = modifier.get_carrier(modifier.find(obj), render)
+        assert carrier is not None and modifier.owns(obj, carrier, render) and not carrier.users_collection
+        assert len(carrier.data.vertices) == len(mesh.vertices)
+
+
+def carrier_positions(obj, render):
+    modifier = helpers.sub("blender.modifier")
+    c = modifier.get_carrier(modifier.find(obj), render)
+    co = np.empty(len(c.data.vertices) * 3, np.float32)
+    c.data.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def posed_for_a_render():
+    """The light fixture bound and posed in a scene set up for tiny Workbench renders."""
+    import test_render
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    test_render.setup_scene(char)
+    helpers.pose_limbs(char, elbow=1.2, knee=0.4)
+    bpy.context.view_layer.update()
+    return char, obj
+
+
+def test_render_and_viewport_keep_their_own_carriers():
+    """A render writes the render carrier for the pose it renders; the viewport writes its own
+    and never the render's, so a render in another thread (Lock Interface off) and the viewport
+    playing other frames do not overwrite each other's offsets."""
+    char, obj = posed_for_a_render()
+    check_equals_core(obj, "viewport")
+    rendered = carrier_positions(obj, False)  # the viewport's offsets for this pose
+    assert rendered.any() and not carrier_positions(obj, True).any()  # no render yet: zero offsets
+    calls = core_calls()
+    assert bpy.ops.render.render() == {'FINISHED'}
+    assert core_calls() > calls
+    np.testing.assert_array_equal(carrier_positions(obj, True), rendered)
+    helpers.pose_limbs(char, elbow=0.2, knee=1.3)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "viewport, other pose")  # from the viewport carrier
+    assert not np.array_equal(carrier_positions(obj, False), rendered)
+    np.testing.assert_array_equal(carrier_positions(obj, True), rendered)
+
+
+def test_linked_duplicates_each_on_their_own_armature():
+    """Alt+D of the character and its armature: one mesh, two objects, two armatures in
+    different poses: both are what the core computes for their own pose."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    new_obj, new_arm = helpers.duplicate_character(obj, char.armature, linked=True)
+    assert new_obj.data == obj.data  # a shared mesh
+    assert new_obj.sweep_deform.armature == new_arm
+    new_arm.location.x += 1.0
+    for n in char.elbows:
+        helpers.set_rotation(new_arm.pose.bones[n], (1.3, 0.0, 0.0))
+    helpers.pose_limbs(char, elbow=0.3, knee=0.9)
+    bpy.context.view_layer.update()
+    a, b = check_equals_core(obj, "original"), check_equals_core(new_obj, "linked duplicate")
+    assert not np.allclose(a, b)
+    assert new_obj.sweep_deform.state == 'BOUND' and not new_obj.sweep_deform.message
+    # And again after another pose of the first one only.
+    helpers.pose_limbs(char, elbow=1.0, knee=0.1)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "original, pose 2")
+    np.testing.assert_array_equal(check_equals_core(new_obj, "duplicate, unchanged"), b)
+    modifier = helpers.sub("blender.modifier")
+    for render in (False, True):
+        ca, cb = (modifier.get_carrier(modifier.find(o), render) for o in (obj, new_obj))
+        assert ca != cb and modifier.owns(obj, ca, render) and modifier.owns(new_obj, cb, render)
+    # Saved and reopened, both still deform.
+    path = helpers.tmp_dir() + "/linked_duplicates.blend"
+    names = obj.name, new_obj.name, new_arm.name
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj, new_obj, new_arm = (bpy.data.objects[n] for n in names)
+    helpers.set_rotation(new_arm.pose.bones[char.elbows[0]], (0.6, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "reopened")
+    check_equals_core(new_obj, "duplicate reopened")
+
+
+def _hide(characters, scene):
+    """Nine characters (mesh and armature) that do not show, three ways each: hidden in the
+    view layer, disabled in viewports, in an excluded collection."""
+    excluded = bpy.data.collections.new("Excluded")
+    scene.collection.children.link(excluded)
+    bpy.context.view_layer.layer_collection.children[excluded.name].exclude = True
+    for i, pair in enumerate(characters):
+        for o in pair:
+            if i % 3 == 0:
+                o.hide_set(True)
+            elif i % 3 == 1:
+                o.hide_viewport = True
+            else:
+                for c in list(o.users_collection):
+                    c.objects.unlink(o)
+                excluded.objects.link(o)
+
+
+def _time_frames(scene, frames):
+    """(seconds a frame, of which in the add-on's handlers)."""
+    handlers = helpers.sub("blender.handlers")
+    inner, spent = handlers.evaluate_scene, [0.0]
+
+    def timed(*args, **kwargs):
+        t0 = time.perf_counter()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            spent[0] += time.perf_counter() - t0
+
+    handlers.evaluate_scene = timed
+    try:
+        t = time.perf_counter()
+        for f in frames:
+            scene.frame_set(f)
+        total = time.perf_counter() - t
+    finally:
+        handlers.evaluate_scene = inner
+    return total / len(frames), spent[0] / len(frames)
+
+
+def test_hidden_and_unchanged_characters_cost_nothing():
+    """Ten bound characters (linked duplicates, each with its own animated armature), nine
+    that do not show: a frame deforms one. Counted (core calls), and timed against a scene
+    with the visible one alone, in the same run (printed, not asserted)."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    scene = bpy.context.scene
+    animate_elbows(char, ((1, 0.0), (30, 1.4), (60, 0.2)))
+    others = []
+    for i in range(9):
+        obj_i, arm_i = helpers.duplicate_character(obj, char.armature, linked=True)
+        arm_i.location.x += 1.0 + i
+        others.append((obj_i, arm_i))
+    scene.frame_set(1)
+    bpy.context.view_layer.update()
+    for o, _ in others:
+        check_equals_core(o, "before hiding")
+    _hide(others, scene)
+    scene.frame_set(2)
+    frames = list(range(3, 30))
+
+    calls = core_calls()
+    per_frame_hidden = _time_frames(scene, frames)
+    assert core_calls() - calls == len(frames)  # the visible one only
+    check_equals_core(obj, "visible")
+
+    # The pose does not change between frames 61 and 70 (after the last key): nothing to do.
+    scene.frame_set(61)
+    calls = core_calls()
+    for f in range(62, 71):
+        scene.frame_set(f)
+    assert core_calls() == calls
+
+    # Showing one again deforms it at once, for the current pose.
+    shown, shown_arm = others[0]
+    shown.hide_set(False)
+    shown_arm.hide_set(False)
+    helpers.set_rotation(shown_arm.pose.bones[char.elbows[0]], (0.9, 0.0, 0.0))
+    bpy.context.view_layer.update()
+    check_equals_core(shown, "shown again")
+    shown.hide_set(True)
+    shown_arm.hide_set(True)
+    bpy.context.view_layer.update()
+
+    # A mesh disabled in viewports that a visible object uses (a Shrinkwrap target) is
+    # evaluated: Blender puts it in the depsgraph for its user. (Its armature must be evaluated
+    # too, for its pose: here it is shown again.)
+    used, used_arm = others[1]  # disabled in viewports
+    used_arm.hide_viewport = False
+    cube = bpy.data.objects.new("Shrinkwrapped", bpy.data.meshes.new("Shrinkwrapped"))
+    scene.collection.objects.link(cube)
+    cube.modifiers.new("Shrinkwrap", 'SHRINKWRAP').target = used
+    scene.frame_set(2)
+    calls = core_calls()
+    scene.frame_set(3)
+    assert core_calls() - calls == 2
+    check_equals_core(used, "hidden but used")
+    bpy.data.objects.remove(cube)
+    used_arm.hide_viewport = True
+
+    # The same frames with the visible character alone in the scene.
+    for o, a in others:
+        for c in list(o.users_collection) + list(a.users_collection):
+            if o.name in c.objects:
+                c.objects.unlink(o)
+            if a.name in c.objects:
+                c.objects.unlink(a)
+    scene.frame_set(2)
+    calls = core_calls()
+    per_frame_alone = _time_frames(scene, frames)
+    assert core_calls() - calls == len(frames)
+    (hidden, hidden_addon), (alone, alone_addon) = per_frame_hidden, per_frame_alone
+    print(f"\nten characters, nine hidden: {1e3 * hidden:.2f} ms a frame ({1e3 * hidden_addon:.2f} ms in the add-on); "
+          f"the visible one alone: {1e3 * alone:.2f} ms ({1e3 * alone_addon:.2f} ms); ratio {hidden / alone:.2f} "
+          f"(add-on {hidden_addon / alone_addon:.2f})")
+
+
+def test_hide_render_costs_nothing_in_a_render():
+    """A character hidden for renders is not deformed by a render (its render carrier is not
+    written); shown again for renders, it is."""
+    char, obj = posed_for_a_render()
+    obj.hide_render = True
+    calls = core_calls()
+    assert bpy.ops.render.render() == {'FINISHED'}
+    assert core_calls() == calls and not carrier_positions(obj, True).any()
+    obj.hide_render = False
+    assert bpy.ops.render.render() == {'FINISHED'}
+    assert core_calls() == calls + 1
+    np.testing.assert_array_equal(carrier_positions(obj, True), carrier_positions(obj, False))
+
+
+def test_vertex_count_changed_before_the_modifier():
+    """An Array before Sweep Deform: the geometry passes through unchanged and the panel says
+    why and what to do; after Sweep Deform it is fine."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.1, knee=0.7)
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+    modifier = helpers.sub("blender.modifier")
+    panel = helpers.sub("ui.panel")
+    assert panel.vertex_count_problem(bpy.context, obj) is None
+    array = obj.modifiers.new("Array", 'ARRAY')
+    array.count = 2
+    bpy.ops.object.modifier_move_to_index(modifier="Array", index=0)
+    assert list(obj.modifiers).index(modifier.find(obj)) == 1
+    bpy.context.view_layer.update()
+    co, _ = helpers.evaluated_positions(obj)
+    md = modifier.find(obj)
+    md.show_viewport = False
+    bpy.context.view_layer.update()
+    passed, _ = helpers.evaluated_positions(obj)
+    md.show_viewport = True
+    bpy.context.view_layer.update()
+    assert len(co) == 2 * len(obj.data.vertices)
+    np.testing.assert_array_equal(co, passed)  # passed through unchanged
+    message = panel.vertex_count_problem(bpy.context, obj)
+    assert message and "'Array'" in message and "changes the vertex count" in message \
+        and "passes the geometry through unchanged" in message, message
+    if hasattr(md, "node_warnings"):  # Blender 5.x lists the modifier's warnings
+        assert any("vertex count" in w.message for w in md.node_warnings), [w.message for w in md.node_warnings]
+    # Moved after Sweep Deform: deformed, then arrayed.
+    bpy.ops.object.modifier_move_to_index(modifier="Array", index=len(obj.modifiers) - 1)
+    bpy.context.view_layer.update()
+    assert panel.vertex_count_problem(bpy.context, obj) is None
+    co, _ = helpers.evaluated_positions(obj)
+    expected, _ = helpers.core_expectation(obj)
+    np.testing.assert_array_equal(co[:len(expected)], expected)
+
+
+def test_two_threads_on_one_deformer_match_the_serial_results():
+    """ctypes releases the GIL: a render thread and the viewport can run the same character's
+    deformer at once. Each call must give the serial result for its own pose."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    bpy.context.view_layer.update()
+    e = helpers.sub("blender.deformer_cache").entry(obj)
+    d = e.deformer
+    poses = []
+    for angle in (0.2, 0.7, 1.2, 1.6):
+        helpers.pose_limbs(char, elbow=angle, knee=angle)
+        bpy.context.view_layer.update()
+        poses.append(e.armature_pose(char.armature.evaluated_get(bpy.context.evaluated_depsgraph_get())).copy())
+    V = d.vertex_count
+    serial = [d.deform(p, np.empty((V, 3), np.float32)).copy() for p in poses]
+    assert not np.array_equal(serial[0], serial[3])
+    bad = []
+
+    def worker(first):
+        out = np.empty((V, 3), np.float32)
+        for r in range(60):
+            i = (first + r) % len(poses)
+            d.deform(poses[i], out)
+            if not np.array_equal(out, serial[i]):
+                bad.append(i)
+
+    threads = [threading.Thread(target=worker, args=(k,)) for k in (0, 2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not bad, f"{len(bad)} of 120 concurrent results differ from the serial ones"
+    assert handler_failures() == set()
+
+
+def _layout_1(ng):
+    """The node group as version 1 of the add-on built it (offsets in the mesh's attribute)."""
+    ng.nodes.clear()
+    ng.interface.clear()
+    ng.interface.new_socket(name="Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
+    ng.interface.new_socket(name="Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
+    nodes, links = ng.nodes, ng.links
+    gin, gout = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
+    named = nodes.new('GeometryNodeInputNamedAttribute')
+    named.data_type = 'FLOAT_VECTOR'
+    named.inputs['Name'].default_value = "sweep_deform_offset"
+    setpos = nodes.new('GeometryNodeSetPosition')
+    remove = nodes.new('GeometryNodeRemoveAttribute')
+    remove.inputs['Name'].default_value = "sweep_deform_offset"
+    links.new(gin.outputs['Geometry'], setpos.inputs['Geometry'])
+    links.new(named.outputs['Exists'], setpos.inputs['Selection'])
+    links.new(named.outputs['Attribute'], setpos.inputs['Offset'])
+    links.new(setpos.outputs['Geometry'], remove.inputs['Geometry'])
+    links.new(remove.outputs['Geometry'], gout.inputs['Geometry'])
+    ng["sweep_deform_group"] = 1
+
+
+def test_file_bound_by_the_previous_version_loads_and_deforms():
+    """A file as version 1 saved it (node group layout 1, the offsets in the mesh's
+    ``sweep_deform_offset`` attribute, no carriers): opened, the group is brought up to date,
+    the attribute leaves the mesh, the carriers are made, and the character deforms."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0, knee=0.6)
+    bpy.context.view_layer.update()
+    offsets = check_equals_core(obj, "bound") - helpers.base_positions(obj)
+    modifier = helpers.sub("blender.modifier")
+    md = modifier.find(obj)
+    for render in (False, True):
+        c = modifier.get_carrier(md, render)
+        modifier.set_carrier(md, None, render)
+        bpy.data.objects.remove(c)
+    _layout_1(md.node_group)
+    attr = obj.data.attributes.new("sweep_deform_offset", 'FLOAT_VECTOR', 'POINT')
+    attr.data.foreach_set("vector", offsets.reshape(-1))
+    path = helpers.tmp_dir() + "/bound_by_version_1.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj = bpy.data.objects["Body"]
+    md = modifier.find(obj)
+    assert md is not None and md.node_group.get(modifier.GROUP_TAG) == modifier.GROUP_VERSION
+    assert "sweep_deform_offset" not in obj.data.attributes
+    helpers.pose_limbs(char, elbow=0.4, knee=1.2)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "migrated")
+    assert obj.sweep_deform.state == 'BOUND' and not helpers.sub("blender.deformer_cache").peek(obj).error
+    for render in (False, True):
+        assert modifier.owns(obj, modifier.get_carrier(md, render), render)
+
+
+def _weighted(obj, group, least=0.999):
+    """Indices of the vertices with at least `least` of their weight in vertex group `group`."""
+    index = obj.vertex_groups[group].index
+    return np.array([v.index for v in obj.data.vertices
+                     if any(g.group == index and g.weight >= least for g in v.groups)], np.int64)
+
+
+def test_shape_key_rides_along_with_the_head():
+    """A relative shape key on the head (3 cm along +X, value 1), the neck turned 90°: the head
+    is the rigid turn of basis + key (Blender's Armature modifier on the same mesh, where the
+    head's vertices follow one bone), within 1e-4 of the diagonal. Without the local linear
+    maps the key's move would stay along +X."""
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    head = _weighted(obj, "head")
+    assert len(head) > 1000
+    base = helpers.base_positions(obj)
+    obj.shape_key_add(name="Basis", from_mix=False)
+    key = obj.shape_key_add(name="Shift", from_mix=False)
+    shifted = base.copy()
+    shifted[head, 0] += 0.03
+    key.data.foreach_set("co", shifted.reshape(-1))
+    key.value = 1.0
+    neck = char.armature.pose.bones["neck_01"]
+    helpers.set_rotation(neck, (0.0, np.pi / 2, 0.0))  # about the bone's own axis: the head turns
+    bpy.context.view_layer.update()
+    co, _ = helpers.evaluated_positions(obj)
+    rigid = helpers.armature_modifier_positions(obj)
+    diag = helpers.diagonal(base)
+    err = np.linalg.norm(co[head] - rigid[head], axis=1)
+    turned = np.linalg.norm(rigid[head] - shifted[head], axis=1)
+    print(f"\nhead ({len(head)} vertices), shape key +3 cm X, neck 90°: vs the rigid turn median {np.median(err):.2e}, "
+          f"max {err.max():.2e} (diagonal {diag:.3f}); the head moved {np.median(turned):.3f} (median)")
+    assert np.median(turned) > 0.02  # the neck really turned the head
+    assert err.max() <= 1e-4 * diag
+    # The rest of the body: the mesh as before (no key there), equal to the core's result.
+    key.value = 0.0
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "key at 0")
+
+
+def test_displace_before_the_modifier_turns_with_the_forearm():
+    """A Displace modifier before Sweep Deform (1 cm along mesh X everywhere), elbows bent: on
+    the forearms its move turns with them as under Blender's Armature modifier (the move the
+    modifier adds, with and without the Displace, compared on the vertices that follow the
+    forearm alone, on its outer half: nearer the elbow the sweep's cross-sections turn by part
+    of the bend, by design, where the bone turns by all of it)."""
+    helpers.require("makehuman")
+    char = helpers.load("makehuman")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    forearm = _weighted(obj, char.elbows[0])
+    bone = char.armature.data.bones[char.elbows[0]]
+    to_mesh = obj.matrix_world.inverted() @ char.armature.matrix_world
+    head, tail = (np.array(to_mesh @ p) for p in (bone.head_local, bone.tail_local))
+    along = (helpers.base_positions(obj)[forearm] - head) @ (tail - head) / np.dot(tail - head, tail - head)
+    forearm = forearm[along > 0.5]
+    assert len(forearm) > 30
+    helpers.pose_limbs(char, elbow=1.4)
+    bpy.context.view_layer.update()
+    plain, lbs_plain = helpers.evaluated_positions(obj)[0], helpers.armature_modifier_positions(obj)
+    texture_free = obj.modifiers.new("Displace", 'DISPLACE')
+    texture_free.direction, texture_free.strength, texture_free.mid_level = 'X', 0.01, 0.0
+    bpy.ops.object.modifier_move_to_index(modifier="Displace", index=0)
+    bpy.context.view_layer.update()
+    moved, lbs_moved = helpers.evaluated_positions(obj)[0], helpers.armature_modifier_positions(obj)
+    ours, theirs = (moved - plain)[forearm], (lbs_moved - lbs_plain)[forearm]
+    err = np.linalg.norm(ours - theirs, axis=1)
+    turn = np.degrees(np.arccos(np.clip(theirs[:, 0] / 0.01, -1, 1)))
+    print(f"\nDisplace 1 cm X, elbow 1.4 rad: {len(forearm)} forearm vertices turned {np.median(turn):.0f}° (median); "
+          f"against the Armature modifier median {np.median(err):.2e}, max {err.max():.2e}")
+    assert np.median(turn) > 45  # the move did turn
+    assert err.max() < 0.05 * 0.01
