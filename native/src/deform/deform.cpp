@@ -45,6 +45,8 @@ void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
         int n = 0;
         if (k > 0) r += ratio[k - 1], ++n;
         if (k < K - 1) r += ratio[k], ++n;
+        // Within rounding of the rest length (the rest pose) nothing changes, bit for bit.
+        if (std::abs(r / n - 1.0) < 1e-9) continue;
         const double scale = std::sqrt(1.0 + strength * (r / n - 1.0));
         a[k] *= scale;
         b[k] *= scale;

@@ -35,11 +35,12 @@ void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>&
         if (!m.blend.empty()) {
             // Linear blend of the bones' transforms for the center, of their rotations
             // (on one hemisphere) for the orientation.
-            dvec3 c(0.0);
+            // (The center as rest + the blended moves, so the rest pose gives it back exactly.)
+            dvec3 c = e.center;
             dquat q(0, 0, 0, 0);
             const dquat& first = pose.rotation[m.blend.front().first];
             for (const auto& [bone, w] : m.blend) {
-                c += w * dvec3(pose.deform[bone] * dvec4(e.center, 1.0));
+                c += w * (dvec3(pose.deform[bone] * dvec4(e.center, 1.0)) - e.center);
                 const dquat& r = pose.rotation[bone];
                 q += (glm::dot(r, first) < 0.0 ? -w : w) * r;
             }
