@@ -245,8 +245,8 @@ CLOSE_UPS = {"arms_up": "shoulder", "elbow_bend": "elbow", "forearm_twist": "for
 SHORT_LABELS = {"armature": "Armature", "preserve_volume": "Preserve Volume",
                 "sweep_deform": "Sweep Deform", "sweep_deform_fx": "Sweep + effects"}
 #: Per joint: the bone roles (demo_motion.ROLES) whose skin the picture must hold whole.
-#: ("@r": the right side's bone.) A limb is shown whole from the joint down (hand with the fingers, foot with the toes), so
-#: that no part of it is cut off at the frame's edge.
+#: ("@r": the right side's bone.) A limb is shown whole from the joint down (hand with the
+#: fingers, foot with the toes), so that no part of it is cut off at the frame's edge.
 CLOSE_UP_BONES = {
     # both arms: the picture is of the left armpit, but a raised right arm would be cut in two
     "shoulder": ["spine_03", "head", "clavicle_{s}", "upperarm_{s}", "lowerarm_{s}", "hand_{s}",
