@@ -3,17 +3,23 @@
 
     blender -b --factory-startup --python scripts/demo_scene.py -- --out DIR
             [--character FILE.blend|.glb|.gltf|.fbx] [--action NAME] [--zip ADDON.zip]
+            [--poses NAME,...] [--motion-step N (0: no clip)] [--timing-frames N (0: no timing)]
 
-It installs the extension, loads the character (default: the built-in one in blend_fixtures/),
+It installs the extension, loads the character (default: the CC0 MakeHuman male in
+blend_fixtures/; a character without an action gets the demo motion of
+blender_support/demo_motion.py, one key pose per joint),
 puts four copies side by side — Blender's Armature modifier (plain), the Armature modifier with
 "Preserve Volume", Sweep Deform, and Sweep Deform with its anatomical effects (skin folding,
 bone protrusion, muscle bulge at the elbows and knees) — plays the action, and writes to DIR:
 
   poses/<pose>.png        one picture per key pose, the methods left to right
-  poses/<pose>_<joint>.png close-ups of the elbow, knee and wrist where the pose bends them
+  poses/<pose>_<joint>_l.png close-ups of the left shoulder, elbow, forearm (twist), knee, hip and
+                          spine where the pose bends them, the methods left to right, each
+                          framed so that the whole limb (or the upper body) is in the picture
   motion/frame_NNNN.png   the motion as a short clip of frames
   report.json, report.md  per pose and method: volume change of each limb and of the body,
-                          intersecting skin triangle pairs at each joint, the smallest forearm
+                          intersecting skin triangle pairs at each joint (shoulders, elbows,
+                          hips, knees, neck, spine), the smallest forearm
                           cross-section relative to rest, and ms per frame
 
 The figures come from the core's measurement functions (sd_measure_*), the same for all
@@ -28,12 +34,13 @@ import time
 
 import bpy
 import numpy as np
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(REPO, "scripts", "blender_support"))
 import install  # noqa: E402  (the installer the tests use too: the same path a user takes)
 import limb_volume  # noqa: E402  (closed volume of a skin region, numpy only)
+import demo_motion  # noqa: E402  (a key pose per joint for a character without an action)
 
 METHODS = [
     ("armature", "Armature modifier"),
@@ -43,18 +50,21 @@ METHODS = [
 ]
 #: Methods that bind Sweep Deform, and whether with the anatomical effects.
 SWEEP_METHODS = {"sweep_deform": False, "sweep_deform_fx": True}
-DEFAULT_POSES = ["rest", "walk", "arms_up", "knee_bend", "elbow_bend", "forearm_twist", "spine_bend"]
+DEFAULT_POSES = ["rest", "walk", "arms_up", "elbow_bend", "forearm_twist", "knee_bend", "hip_flex", "spine_bend"]
+#: The default character: the CC0 MakeHuman male (blend_fixtures/README.md says what it is).
+DEFAULT_CHARACTER = os.path.join(REPO, "blend_fixtures", "mh_male_game_engine_subdiv1.blend")
 
 
 def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     p = argparse.ArgumentParser(prog="demo_scene.py")
     p.add_argument("--out", required=True)
-    p.add_argument("--character", default=os.path.join(REPO, "blend_fixtures", "character.blend"))
+    p.add_argument("--character", default=DEFAULT_CHARACTER)
     p.add_argument("--action", default="")
     p.add_argument("--zip", default=install.default_zip())
     p.add_argument("--motion-step", type=int, default=6, help="render every Nth frame of the clip")
-    p.add_argument("--timing-frames", type=int, default=40)
+    p.add_argument("--timing-frames", type=int, default=40, help="0: no timing")
+    p.add_argument("--poses", default="", help="only these key poses (comma-separated; rest is always measured)")
     return p.parse_args(argv)
 
 
@@ -91,7 +101,11 @@ def load_character(path, action_name):
             sys.exit(f"demo: no action named {action_name!r}; have {[a.name for a in bpy.data.actions]}")
         arm.animation_data_create().action = action
     if not (arm.animation_data and arm.animation_data.action):
-        sys.exit("demo: the armature has no action; give one with --action")
+        # No motion in the file (the MakeHuman male has none): key one pose per joint.
+        if demo_motion.add_demo_motion(arm, bpy.context.scene) is None:
+            sys.exit("demo: the armature has no action and no bones the demo motion knows; give one with --action")
+        print(f"demo: no action in {os.path.basename(path)}; keyed the demo motion "
+              f"({', '.join(m.name for m in bpy.context.scene.timeline_markers)})", flush=True)
     return arm, body
 
 
@@ -160,7 +174,7 @@ def setup_render(scene, width, height):
     scene.render.image_settings.file_format = 'PNG'
     scene.display.shading.light = 'STUDIO'
     scene.display.shading.color_type = 'SINGLE'
-    scene.display.shading.single_color = (0.8, 0.62, 0.52)
+    scene.display.shading.single_color = SKIN[:3]
     scene.display.shading.show_cavity = True
     scene.display.render_aa = '8'
     if scene.world is None:
@@ -225,60 +239,175 @@ def render_strip(scene, path, views):
 
 
 #: Poses that get a close-up, and of which joint of the character's left side.
-CLOSE_UPS = {"elbow_bend": "elbow_l", "knee_bend": "knee_l", "forearm_twist": "forearm_l"}
+CLOSE_UPS = {"arms_up": "shoulder", "elbow_bend": "elbow", "forearm_twist": "forearm",
+             "knee_bend": "knee", "hip_flex": "hip", "spine_bend": "spine"}
+#: Short labels for the close-ups (the tiles are narrow).
+SHORT_LABELS = {"armature": "Armature", "preserve_volume": "Preserve Volume",
+                "sweep_deform": "Sweep Deform", "sweep_deform_fx": "Sweep + effects"}
+#: Per joint: the bone roles (demo_motion.ROLES) whose skin the picture must hold whole.
+#: ("@r": the right side's bone.) A limb is shown whole from the joint down (hand with the
+#: fingers, foot with the toes), so that no part of it is cut off at the frame's edge.
+CLOSE_UP_BONES = {
+    # both arms: the picture is of the left armpit, but a raised right arm would be cut in two
+    "shoulder": ["spine_03", "head", "clavicle_{s}", "upperarm_{s}", "lowerarm_{s}", "hand_{s}",
+                 "clavicle_{s}@r", "upperarm_{s}@r", "lowerarm_{s}@r", "hand_{s}@r"],
+    "elbow": ["upperarm_{s}", "lowerarm_{s}", "hand_{s}"],
+    "forearm": ["lowerarm_{s}", "hand_{s}"],
+    "knee": ["thigh_{s}", "calf_{s}", "foot_{s}"],
+    "hip": ["pelvis", "thigh_{s}", "calf_{s}", "foot_{s}"],
+    "spine": ["pelvis", "spine_01", "spine_02", "spine_03", "neck", "head",
+              "clavicle_{s}", "upperarm_{s}", "lowerarm_{s}", "hand_{s}"],
+}
+SKIN = (0.8, 0.62, 0.52, 1.0)
+INK = (0.05, 0.05, 0.05, 1.0)
 
 
-def render_close_up(scene, columns, chains, joint, size, path):
-    """The joint seen from the character's left side (+X), one picture per method, tiled
-    left to right. Other columns are hidden meanwhile (they stand on that side)."""
+def close_up_vertices(col, dom_names, joint):
+    """Vertices (mask) whose heaviest bone is one of the joint's bones or, for the hand, any
+    bone below it (the fingers)."""
+    arm = col["arm"]
+    names = set()
+    for role in CLOSE_UP_BONES[joint]:
+        role, _, side = role.partition("@")
+        pb = demo_motion.bone(arm, role, side or "l")
+        if pb is None:
+            continue
+        names.add(pb.name)
+        if role.startswith(("hand", "foot")):
+            names.update(c.name for c in pb.bone.children_recursive)
+    return np.isin(dom_names, sorted(names)) if names else None
+
+
+def close_up_axes(col, joint):
+    """(look, up): the camera's viewing direction and its up vector, in world space."""
+    arm = col["arm"]
+    m = arm.matrix_world.to_3x3()
+
+    def posed_dir(role):
+        pb = demo_motion.bone(arm, role, "l")
+        return None if pb is None else (m @ (pb.tail - pb.head)).normalized()
+
+    up = Vector((0, 0, 1))
+    if joint == "elbow":
+        du, dl = posed_dir("upperarm_{s}"), posed_dir("lowerarm_{s}")
+        if du is not None and dl is not None and du.cross(dl).length > 0.2:
+            look = du.cross(dl).normalized()
+            if look.x > 0:  # look from the outside of the arm, inwards
+                look = -look
+            return look, (up - up.dot(look) * look).normalized()
+        return Vector((-1, 0, 0)), up
+    if joint == "forearm":
+        d = posed_dir("lowerarm_{s}")
+        look = Vector((0, 1, 0))
+        if d is not None:
+            look = (look - look.dot(d) * d).normalized()
+            return look, look.cross(d).normalized() if look.cross(d).z >= 0 else -look.cross(d).normalized()
+        return look, up
+    if joint == "shoulder":
+        return Vector((0, 1, 0)), up  # from the front
+    return Vector((-1, 0, 0)), up     # knee, hip, spine: from the character's left
+
+
+def render_close_up(scene, columns, dom_names, labels, joint, path, tile_px=560, label_px=34):
+    """The joint of the character's left side, one picture per method tiled left to right,
+    each framed so that the skin of the joint's bones is whole in it, with the method's name
+    on top. Other columns (and the full view's labels) are hidden meanwhile."""
     saved = (scene.render.resolution_x, scene.render.resolution_y, scene.camera.location.copy(),
              scene.camera.rotation_euler.copy(), scene.camera.data.ortho_scale)
-    scene.render.resolution_x = scene.render.resolution_y = 420
-    tiles = []
+    for lab in labels:
+        lab.hide_render = True
+    dg = bpy.context.evaluated_depsgraph_get()
+    views = []
     for col in columns:
+        mask = close_up_vertices(col, dom_names, joint)
+        if mask is None or not mask.any():
+            continue
+        look, up = close_up_axes(col, joint)
+        right = look.cross(up)
+        pos = evaluated_positions(col["body"], dg)[mask]
+        mw = np.array(col["body"].matrix_world)
+        pos = pos @ mw[:3, :3].T + mw[:3, 3]
+        r, u = pos @ np.array(right), pos @ np.array(up)
+        views.append((col, look, up, right, (r.min(), r.max()), (u.min(), u.max())))
+    if not views:
+        return
+    # One size for every method (the widest and tallest of them), 10 % margin on each side
+    # and a band on top for the label.
+    w = 1.2 * max(v[4][1] - v[4][0] for v in views)
+    h = max(1.2 * max(v[5][1] - v[5][0] for v in views), 0.6 * w)
+    # The label: label_px high at the output resolution, on a light band above the skin.
+    scale = tile_px / max(w, h / 0.8)
+    size = label_px / scale
+    band = 2.0 * size
+    h += band
+    scale = tile_px / max(w, h)
+    scene.render.resolution_x, scene.render.resolution_y = int(round(w * scale)), int(round(h * scale))
+    tiles = []
+    for col, look, up, right, (r0, r1), (u0, u1) in views:
         for other in columns:
             other["body"].hide_render = other is not col
-        where = joint_position(col, chains, joint)
-        if where is None:
-            continue
+        center = right * float((r0 + r1) / 2) + up * float((u0 + u1) / 2 + band / 2)
+        # The depth of the centre along `look`: the joint's own skin.
+        pos_depth = float(np.mean([look.dot(Vector(p)) for p in
+                                   [col["body"].matrix_world @ Vector(c) for c in col["body"].bound_box]]))
+        center += look * (pos_depth - look.dot(center))
         cam = scene.camera
-        cam.location = (where[0] + 10.0, where[1], where[2])
-        cam.rotation_euler = (np.pi / 2, 0.0, np.pi / 2)
-        cam.data.ortho_scale = size
+        cam.location = center - 10.0 * look
+        cam.rotation_euler = Matrix((right, up, -look)).transposed().to_euler()
+        cam.data.ortho_scale = max(w, h)
+        label = add_label(SHORT_LABELS.get(col["key"], col["label"]),
+                          center + up * (h / 2 - band * 0.72) - 5.0 * look, size)
+        label.rotation_euler = cam.rotation_euler
+        label.color = INK
+        backing = label_band(center + up * (h / 2 - band / 2) - 4.0 * look, cam.rotation_euler, w, band)
         tile = path[:-4] + f"_{col['key']}.png"
         render(scene, tile)
+        bpy.data.objects.remove(label)
+        bpy.data.objects.remove(backing)
         img = bpy.data.images.load(tile)
         px = np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4)
         bpy.data.images.remove(img)
         os.remove(tile)
+        # A thin grey line between the methods.
+        px[:, -2:, :3] = 0.6
         tiles.append(px)
     for col in columns:
         col["body"].hide_render = False
+    for lab in labels:
+        lab.hide_render = False
     (scene.render.resolution_x, scene.render.resolution_y, scene.camera.location,
      scene.camera.rotation_euler, scene.camera.data.ortho_scale) = saved
-    if tiles:
-        strip = np.concatenate(tiles, axis=1)
-        img = bpy.data.images.new("closeup", strip.shape[1], strip.shape[0], alpha=True)
-        img.pixels.foreach_set(strip.ravel())
-        img.filepath_raw = path
-        img.file_format = 'PNG'
-        img.save()
-        bpy.data.images.remove(img)
+    strip = np.concatenate(tiles, axis=1)
+    img = bpy.data.images.new("closeup", strip.shape[1], strip.shape[0], alpha=True)
+    img.pixels.foreach_set(strip.ravel())
+    img.filepath_raw = path
+    img.file_format = 'PNG'
+    img.save()
+    bpy.data.images.remove(img)
 
 
-def joint_position(col, chains, joint):
-    """World position of a named joint of one column ('elbow_l', 'knee_l', 'forearm_l')."""
-    kind, side = joint.split("_")
-    chain = next((c for c in chains if c["kind"] == ("leg" if kind == "knee" else "arm")
-                  and c["name"].endswith("_" + side)), None)
-    if chain is None:
-        return None
-    pb = col["arm"].pose.bones.get(chain["bone_names"][-1])
-    if pb is None:
-        return None
-    m = col["arm"].matrix_world
-    p = pb.head if kind != "forearm" else (pb.head + pb.tail) / 2
-    return np.array(m @ p)
+def label_band(center, rotation, width, height):
+    """A flat light rectangle (facing the camera) that the label stands on."""
+    mesh = bpy.data.meshes.new("label_band")
+    mesh.from_pydata([(-width, -height / 2, 0), (width, -height / 2, 0), (width, height / 2, 0),
+                      (-width, height / 2, 0)], [], [(0, 1, 2, 3)])
+    obj = bpy.data.objects.new("label_band", mesh)
+    obj.location, obj.rotation_euler, obj.color = center, rotation, (0.93, 0.93, 0.93, 1.0)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def dominant_bone_names(body):
+    """Per vertex: the name of its heaviest vertex group ('' if none)."""
+    names = {g.index: g.name for g in body.vertex_groups}
+    dominant = np.full(len(body.data.vertices), -1, np.int64)
+    best = np.zeros(len(body.data.vertices))
+    for v in body.data.vertices:
+        for g in v.groups:
+            if g.weight > best[v.index]:
+                best[v.index], dominant[v.index] = g.weight, g.group
+    group_names = np.array([names.get(i, "") for i in range(max(names) + 1)] if names else [""])
+    return np.where(dominant >= 0, group_names[np.clip(dominant, 0, None)], "")
 
 
 # ---- measurements ------------------------------------------------------------------------
@@ -308,21 +437,9 @@ def chains_from_report(body):
     return [c for c in report.get("chains", []) if c.get("sweep", -1) >= 0]
 
 
-def limb_regions(body, chains):
+def limb_regions(dom_names, chains):
     """Per chain: the vertices whose heaviest vertex group is one of the chain's bones."""
-    names = {g.index: g.name for g in body.vertex_groups}
-    dominant = np.full(len(body.data.vertices), -1, np.int64)
-    best = np.zeros(len(body.data.vertices))
-    for v in body.data.vertices:
-        for g in v.groups:
-            if g.weight > best[v.index]:
-                best[v.index], dominant[v.index] = g.weight, g.group
-    group_names = np.array([names.get(i, "") for i in range(max(names) + 1)] if names else [""])
-    dom_names = np.where(dominant >= 0, group_names[np.clip(dominant, 0, None)], "")
-    regions = {}
-    for c in chains:
-        regions[c["name"]] = np.isin(dom_names, c["bone_names"])
-    return regions
+    return {c["name"]: np.isin(dom_names, c["bone_names"]) for c in chains}
 
 
 def limb_volumes(regions, tris):
@@ -350,6 +467,10 @@ def joints(arm, body, chains):
             out[f"{top}_{side}"] = (np.array(to_body @ bones[-2].head), 0.22 * length)
         elif c["kind"] == "neck":
             out["neck"] = (np.array(to_body @ bones[0].head), 0.5 * length)
+        elif c["kind"] == "torso" and len(bones) >= 2:
+            # The waist: the middle of the torso chain, half its length around.
+            mid = bones[len(bones) // 2]
+            out["spine"] = (np.array(to_body @ mid.head), 0.5 * length)
     return out
 
 
@@ -469,7 +590,7 @@ def write_report(out_dir, info, poses, timing, timing_frames):
         joints_ = sorted(next(iter(pose["methods"].values()))["intersecting_pairs"])
         lines += ["| method | body volume | " + " | ".join(f"{n} volume" for n in limbs) +
                   " | intersecting pairs (" + ", ".join(joints_) + ") | smallest forearm section |",
-                  "|---" * (3 + len(limbs)) + "|"]
+                  "|---" * (4 + len(limbs)) + "|"]
         for key, label in METHODS:
             m = pose["methods"][key]
             sec = m["smallest_forearm_section_vs_rest"]
@@ -495,24 +616,48 @@ def main():
     scene = bpy.context.scene
     action = arm.animation_data.action
     poses = key_poses(scene, action)
+    if args.poses:
+        keep = set(args.poses.split(",")) | {"rest"}
+        poses = [(n, f) for n, f in poses if n in keep]
     rest_frame = dict(poses).get("rest", poses[0][1])
     scene.frame_set(rest_frame)
     lo, hi = world_bbox([body])
     height = float(hi[2] - lo[2])
-    columns = make_columns(arm, body, spacing=1.25 * max(hi[0] - lo[0], 0.6 * height))
+    # The columns far enough apart for the widest key pose (arms out to the side).
+    width = 0.0
+    for _, frame in poses:
+        scene.frame_set(frame)
+        plo, phi = world_bbox([body.evaluated_get(bpy.context.evaluated_depsgraph_get())])
+        width = max(width, float(phi[0] - plo[0]))
+    scene.frame_set(rest_frame)
+    columns = make_columns(arm, body, spacing=1.15 * max(width, 0.6 * height))
     chains = chains_from_report(next(c for c in columns if c["key"] in SWEEP_METHODS)["body"])
     if not chains:
         sys.exit("demo: the fitting found no chains; see the Sweep Deform panel's message")
     tris = rest_triangles(body.data)
-    limbs = limb_volumes(limb_regions(body, chains), tris)
+    dom_names = dominant_bone_names(body)
+    limbs = limb_volumes(limb_regions(dom_names, chains), tris)
     print(f"demo: {len(body.data.vertices)} vertices, chains {[c['name'] for c in chains]}", flush=True)
 
     setup_render(scene, 500 * len(columns), 720)
-    blo, bhi = world_bbox([c["body"] for c in columns])
+    scene.display.shading.color_type = 'OBJECT'  # skin on the bodies, ink on the labels
+    for col in columns:
+        col["body"].color = SKIN
+    # One frame for every pose: the box around all bodies in all key poses (raised arms too).
+    boxes = []
+    for _, frame in poses:
+        scene.frame_set(frame)
+        dg = bpy.context.evaluated_depsgraph_get()
+        boxes += [world_bbox([c["body"].evaluated_get(dg)]) for c in columns]
+    scene.frame_set(rest_frame)
+    blo, bhi = np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+    labels = []
     for col in columns:
         clo, chi = world_bbox([col["body"]])
-        add_label(col["label"], ((clo[0] + chi[0]) / 2, clo[1] - 0.3, clo[2] - 0.07 * height), 0.045 * height)
-    full_lo, full_hi = blo - np.array([0, 0, 0.1 * height]), bhi + np.array([0, 0, 0.02 * height])
+        labels.append(add_label(col["label"], ((clo[0] + chi[0]) / 2, blo[1] - 0.3, blo[2] - 0.085 * height),
+                                0.06 * height))
+        labels[-1].color = INK
+    full_lo, full_hi = blo - np.array([0, 0, 0.12 * height]), bhi + np.array([0, 0, 0.02 * height])
 
     rest_figs = None
     report_poses = []
@@ -529,20 +674,21 @@ def main():
         render(scene, os.path.join(out_dir, "poses", f"{name}.png"))
         if name in CLOSE_UPS:
             joint = CLOSE_UPS[name]
-            render_close_up(scene, columns, chains, joint, 0.18 * height,
-                            os.path.join(out_dir, "poses", f"{name}_{joint}.png"))
+            render_close_up(scene, columns, dom_names, labels, joint,
+                            os.path.join(out_dir, "poses", f"{name}_{joint}_l.png"))
         print(f"demo: pose {name} (frame {frame}) rendered and measured", flush=True)
 
     # The motion as a clip of frames.
-    scene.render.resolution_x, scene.render.resolution_y = 250 * len(columns), 360
+    scene.render.resolution_x, scene.render.resolution_y = 350 * len(columns), 504  # labels ~20 px
     start, end = (int(x) for x in action.frame_range)
-    for i, f in enumerate(range(start, end + 1, max(1, args.motion_step))):
+    for i, f in enumerate(range(start, end + 1, args.motion_step) if args.motion_step > 0 else []):
         scene.frame_set(f)
         render(scene, os.path.join(out_dir, "motion", f"frame_{i:04d}.png"))
 
     step = max(1, (end - start) // max(1, args.timing_frames))
     timing_frames = list(range(start, end + 1, step))
-    timing = time_methods(scene, columns, timing_frames)
+    timing = (time_methods(scene, columns, timing_frames) if args.timing_frames > 0 else
+              {key: float("nan") for key in ["armature_only"] + [c["key"] for c in columns]})
     info = {"name": os.path.basename(args.character), "vertices": len(body.data.vertices),
             "triangles": int(len(tris)), "chains": [c["name"] for c in chains],
             "blender": bpy.app.version_string}
