@@ -29,10 +29,11 @@ double span_thickness(const SweepGeometry& g, int span) {
 
 void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b) {
-    // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
-    // shorter than at rest where it bends; each key's cross-section grows by what its two
-    // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
-    // (which made a ledge across a bent torso).
+    // A bent sweep is shorter along its normals than at rest where it bends (a thick chain's
+    // blended bend compresses its inside; at an elbow the planes tilt); each key's
+    // cross-section grows by what its two spans lost (mean), so the volume comes back where
+    // it was lost, not at a few joint keys (a ledge across a bent torso, an elbow pushed out
+    // and into itself).
     const int K = s.key_count();
     std::vector<double> ratio(K - 1);
     for (int span = 0; span < K - 1; ++span) {
@@ -110,8 +111,6 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
         const SweepGeometry g(centers, rotations);
-        if (s.bends_smoothly && volume_enabled_ && volume_strength_ > 0.0)
-            restore_local_volume(s, g, volume_strength_, a, b);
         key_rotations_[si] = g.key_rotations();
 
         // Volume control (Sect. 4.4) on the key half-axes.
@@ -125,8 +124,10 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
                 edited = before - form.volume(s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
             const double target =
                 before + volume_strength_ * (s.corrected_rest_volume + edited - volume_offsets_[si] - before);
+            // First where it was lost, key by key; the controller corrects what is left.
+            restore_local_volume(s, g, volume_strength_, a, b);
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
-            volume_before[si] = r.before;
+            volume_before[si] = before;
             volume_after[si] = r.after;
             volume_iterations[si] = r.iterations;
         } else {
