@@ -31,6 +31,33 @@ def linked_mesh_message(obj):
             "of it first")
 
 
+def armature_problem(obj):
+    """None while the binding's armature is there, else what happened to it, naming it: deleted
+    (the pointer went empty, or the object is in no scene any more), or replaced by another
+    armature object."""
+    s = obj.sweep_deform
+    arm = s.armature
+    if arm is None:
+        name = f" '{s.bound_armature}'" if s.bound_armature else ""
+        return f"The armature{name} this mesh was bound to was deleted (or cleared from the Sweep Deform settings)"
+    if not arm.users_scene:  # deleted by the operator: kept alive only by references like ours
+        return f"The armature '{arm.name}' this mesh was bound to was deleted (it is in no scene any more)"
+    original = s.bound_armature_object
+    if original is not None and original != arm:
+        return f"The armature was replaced ('{original.name}' when bound, '{arm.name}' now)"
+    return None
+
+
+def _rest_message(obj, arm, problem):
+    """The panel's message for changed bones or rest pose; it also says when the armature's
+    data is another one than at binding (a renamed data block with the same bones is fine)."""
+    data = obj.sweep_deform.bound_armature_data
+    if data and arm.data is not None and arm.data.name != data:
+        problem = (f"the armature data of '{arm.name}' was replaced ('{data}' when bound, '{arm.data.name}' now): "
+                   f"{problem}")
+    return f"{problem[0].upper()}{problem[1:]}: bind again"
+
+
 def evaluate(obj, depsgraph, render=False):
     """Updates the offsets of one bound mesh object for the pose in `depsgraph`.
     Returns True if it wrote new offsets."""
@@ -44,7 +71,11 @@ def evaluate(obj, depsgraph, render=False):
     if not modifier.active(md, render):
         return False
     arm = s.armature
-    if arm is None or arm.mode == 'EDIT':
+    gone = armature_problem(obj)
+    if gone:
+        bind_state.set_rebind(obj, f"{gone}: bind again")
+        return False
+    if arm.mode == 'EDIT':
         return False
     linked = linked_mesh_message(obj)
     if linked:
@@ -62,17 +93,20 @@ def evaluate(obj, depsgraph, render=False):
         if e.unusable:
             bind_state.set_rebind(obj, f"The stored binding cannot be used ({e.load_error}): bind again")
         return False
-    if not e.rest_checked:
+    seen = (len(arm.data.bones), arm.data.name)  # a bone removed, other data: check again
+    if not e.rest_checked or e.armature_seen != seen:
         e.rest_checked = True
-        if not e.rest_pose_matches(arm):
-            bind_state.set_rebind(obj, f"The rest pose of '{arm.name}' changed after binding: bind again")
+        e.armature_seen = seen
+        problem = e.rest_pose_problem(arm)
+        if problem:
+            bind_state.set_rebind(obj, _rest_message(obj, arm, problem))
             return False
     arm_eval = arm.evaluated_get(depsgraph)
     obj_eval = obj.evaluated_get(depsgraph)
     try:
         pose = e.armature_pose(arm_eval)
     except KeyError as err:
-        bind_state.set_rebind(obj, f"{err.args[0]}: bind again")
+        bind_state.set_rebind(obj, _rest_message(obj, arm, e.rest_pose_problem(arm) or err.args[0]))
         return False
     problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
     if problem:

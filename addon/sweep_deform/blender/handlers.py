@@ -16,6 +16,12 @@ does not depend on the armature, so a pose change evaluates the mesh once, after
 
 ``load_post`` / ``undo_post`` / ``redo_post`` drop the native objects (re-created lazily from
 the blobs in the file) and check the meshes' topology against the binding's fingerprint.
+
+A file opened without the extension (a render-farm node, a colleague's machine) deforms by
+the Armature modifier: ``save_pre`` switches every bound character's replaced Armature
+modifier back on (it keeps its object) and its Sweep Deform modifier off, so the file on disk
+is an ordinary Armature set-up; ``save_post`` (and ``save_post_fail``) and ``load_post``
+restore both. See docs/addon.md, "Render farms".
 """
 
 import traceback
@@ -23,7 +29,7 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from . import bind_state, bound_objects, deformer_cache, frame, modifier, redraw
+from . import bind_state, binding, bound_objects, deformer_cache, frame, modifier, redraw
 
 #: Object name → mode seen last (a full topology check runs when an object leaves Edit Mode).
 _modes = {}
@@ -76,12 +82,37 @@ def on_frame_change_post(scene, depsgraph=None):
     evaluate_scene(scene, depsgraph, render=render)
 
 
+def _bound_meshes():
+    return [o for o in bpy.data.objects if o.type == 'MESH' and o.sweep_deform.state != 'UNBOUND']
+
+
+@persistent
+def on_save_pre(*_args):
+    """The file on disk deforms by the Armature modifier where the extension is missing."""
+    for obj in _bound_meshes():
+        try:
+            binding.prepare_for_save(obj)
+        except (ReferenceError, AttributeError, RuntimeError) as e:
+            print(f"Sweep Deform: '{obj.name}': not prepared for Blender without the extension: {e}")
+
+
+@persistent
+def on_save_post(*_args):
+    for obj in _bound_meshes():
+        try:
+            binding.restore_after_save(obj)
+        except (ReferenceError, AttributeError, RuntimeError) as e:
+            print(f"Sweep Deform: '{obj.name}': the modifiers were not restored after saving: {e}")
+
+
 @persistent
 def on_load_post(*_args):
     deformer_cache.clear()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
         modifier.node_group()  # bring an older layout up to date
+    for obj in _bound_meshes():
+        binding.restore_after_save(obj)  # saved for Blender without the extension
     for scene in bpy.data.scenes:
         for obj in bound_objects.in_scene(scene):
             if obj.sweep_deform.state == 'BOUND':
@@ -97,19 +128,28 @@ _HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
     (bpy.app.handlers.frame_change_post, on_frame_change_post),
     (bpy.app.handlers.load_post, on_load_post),
+    (bpy.app.handlers.save_pre, on_save_pre),
+    (bpy.app.handlers.save_post, on_save_post),
     (bpy.app.handlers.undo_post, on_undo_redo_post),
     (bpy.app.handlers.redo_post, on_undo_redo_post),
 )
 
 
+def _all_handlers():
+    found = list(_HANDLERS)
+    if hasattr(bpy.app.handlers, "save_post_fail"):  # Blender 4.2+: a failed save restores too
+        found.append((bpy.app.handlers.save_post_fail, on_save_post))
+    return found
+
+
 def register():
     unregister()
-    for handlers, fn in _HANDLERS:
+    for handlers, fn in _all_handlers():
         handlers.append(fn)
 
 
 def unregister():
-    for handlers, fn in _HANDLERS:
+    for handlers, fn in _all_handlers():
         # Match by name too: a reloaded module brings new function objects.
         for h in [h for h in handlers if h is fn or getattr(h, "__qualname__", None) == fn.__qualname__
                   and getattr(h, "__module__", None) == fn.__module__]:
