@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace sd::io {
 namespace {
@@ -23,6 +24,76 @@ std::string extension(const std::string& path) {
   return e;
 }
 
+/// The element counts a PLY or OFF header declares, checked against kMaxMeshVertices /
+/// kMaxMeshFaces and the file's size before OpenMesh reserves memory for them (a header
+/// claiming 4e9 vertices would otherwise have it try to allocate ~100 GB). Returns the
+/// declared (vertex, face) counts (-1 when the header has none).
+std::pair<long long, long long> check_header_counts(const std::string& path, const std::string& ext) {
+  const auto bytes = static_cast<unsigned long long>(std::filesystem::file_size(path));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open file");
+  long long vertices = -1, faces = -1;
+  const auto number = [&](const std::string& word, const char* what) -> long long {
+    // Digits only: a sign, an exponent or more than 18 digits is no count.
+    if (word.empty() || word.size() > 18 || !std::all_of(word.begin(), word.end(), [](unsigned char c) { return std::isdigit(c); }))
+      throw std::runtime_error(path + ": the header's " + what + " count '" + word.substr(0, 24) + "' is not a count");
+    return std::stoll(word);
+  };
+  std::string line;
+  if (ext == ".ply") {
+    int lines = 0;
+    while (std::getline(in, line) && ++lines < 10000) {
+      std::istringstream ss(line);
+      std::string key, kind, count;
+      ss >> key;
+      if (key == "end_header") break;
+      if (key != "element") continue;
+      ss >> kind >> count;
+      if (kind == "vertex") vertices = number(count, "vertex");
+      else if (kind == "face") faces = number(count, "face");
+    }
+  } else {  // .off: "OFF" (maybe with the counts on the same line), comments, "nv nf ne"
+    std::vector<std::string> words;
+    while (words.size() < 3 && std::getline(in, line)) {
+      const size_t hash = line.find('#');
+      if (hash != std::string::npos) line.resize(hash);
+      std::istringstream ss(line);
+      for (std::string w; ss >> w;) {
+        if (words.empty() && w.size() >= 3 && w.compare(w.size() - 3, 3, "OFF") == 0) continue;  // OFF, COFF, NOFF...
+        words.push_back(w);
+      }
+    }
+    if (words.size() >= 2) {
+      vertices = number(words[0], "vertex");
+      faces = number(words[1], "face");
+    }
+  }
+  // Every element takes at least one byte of the file (three floats in a binary PLY, "x y z" in text).
+  if (vertices > kMaxMeshVertices || (vertices > 0 && static_cast<unsigned long long>(vertices) > bytes))
+    throw std::runtime_error(path + ": the header declares " + std::to_string(vertices) + " vertices; at most " +
+                             std::to_string(kMaxMeshVertices) + " are read, and no more than the file's " +
+                             std::to_string(bytes) + " bytes can hold");
+  if (faces > kMaxMeshFaces || (faces > 0 && static_cast<unsigned long long>(faces) > bytes))
+    throw std::runtime_error(path + ": the header declares " + std::to_string(faces) + " faces; at most " +
+                             std::to_string(kMaxMeshFaces) + " are read, and no more than the file's " +
+                             std::to_string(bytes) + " bytes can hold");
+  return {vertices, faces};
+}
+
+/// The "v" and "f" lines of an OBJ file.
+std::pair<long long, long long> obj_counts(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  long long v = 0, f = 0;
+  while (std::getline(in, line)) {
+    if (line.size() > 1 && std::isspace(static_cast<unsigned char>(line[1]))) {
+      if (line[0] == 'v') ++v;
+      else if (line[0] == 'f') ++f;
+    }
+  }
+  return {v, f};
+}
+
 MeshData read_points(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open file");
@@ -33,11 +104,15 @@ MeshData read_points(const std::string& path) {
     ++number;
     const size_t hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
+    if (line.find_first_not_of(" \t\r\v\f") == std::string::npos) continue;  // blank line
     std::istringstream ss(line);
     double x, y, z;
-    if (!(ss >> x)) continue;  // blank line
-    if (!(ss >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
-      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'x y z'");
+    // A line that does not start with three finite numbers ("nan 0 0", "v 1 2 3") is an
+    // error, never skipped: every point of the file is deformed, in order.
+    if (!(ss >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'x y z' with finite numbers");
+    if (m.positions.size() / 3 >= static_cast<size_t>(kMaxMeshVertices))
+      throw std::runtime_error(path + ": more than " + std::to_string(kMaxMeshVertices) + " points");
     m.positions.insert(m.positions.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
   }
   return m;
@@ -77,13 +152,21 @@ MeshData read_mesh(const std::string& path, int* dropped_faces) {
   }
   if (ext != ".obj" && ext != ".ply" && ext != ".off")
     throw std::runtime_error(path + ": unknown mesh format '" + ext + "' (use .obj, .ply, .off or .xyz)");
+  // The file's own counts: the header's of a PLY or OFF, the "v" and "f" lines of an OBJ.
+  const auto [file_vertices, file_faces] = ext == ".obj" ? obj_counts(path) : check_header_counts(path, ext);
   PolyMesh mesh;
   OpenMesh::IO::Options options;
   if (!OpenMesh::IO::read_mesh(mesh, path, options))
     throw std::runtime_error(path + ": OpenMesh could not read it (not a valid " + ext.substr(1) + " file?)");
+  // OpenMesh adds a face it cannot add to a manifold mesh with copies of its vertices,
+  // appended after the file's own: those copies are not the file's points. Only the file's
+  // vertices are kept, in order, and faces that would need a copy are dropped (counted).
+  const long long kept = file_vertices >= 0 ? std::min<long long>(file_vertices, mesh.n_vertices())
+                                            : static_cast<long long>(mesh.n_vertices());
   MeshData m;
-  m.positions.reserve(3 * mesh.n_vertices());
+  m.positions.reserve(3 * static_cast<size_t>(kept));
   for (const auto vh : mesh.vertices()) {
+    if (vh.idx() >= kept) break;
     const auto p = mesh.point(vh);
     for (int k = 0; k < 3; ++k) {
       if (!std::isfinite(p[k])) throw std::runtime_error(path + ": vertex " + std::to_string(vh.idx()) + " is not finite");
@@ -91,22 +174,20 @@ MeshData read_mesh(const std::string& path, int* dropped_faces) {
     }
   }
   if (m.positions.empty()) throw std::runtime_error(path + ": no vertices");
+  long long on_copies = 0;
   for (const auto fh : mesh.faces()) {
     std::vector<int32_t> corners;
     for (const auto vh : mesh.fv_range(fh)) corners.push_back(vh.idx());
+    if (std::any_of(corners.begin(), corners.end(), [&](int32_t c) { return c >= kept; })) {
+      ++on_copies;
+      continue;
+    }
     for (size_t i = 1; i + 1 < corners.size(); ++i) m.triangles.insert(m.triangles.end(), {corners[0], corners[i], corners[i + 1]});
   }
   if (dropped_faces) {
-    // OpenMesh drops faces it cannot add (complex edges); count the file's faces for OBJ/OFF.
-    int faces = -1;
-    if (ext == ".obj") {
-      std::ifstream in(path);
-      std::string line;
-      faces = 0;
-      while (std::getline(in, line))
-        if (line.size() > 1 && line[0] == 'f' && std::isspace(static_cast<unsigned char>(line[1]))) ++faces;
-    }
-    if (faces >= 0) *dropped_faces = std::max(0, faces - static_cast<int>(mesh.n_faces()));
+    // Faces OpenMesh could not add at all, and those it added on copied vertices.
+    const long long read = static_cast<long long>(mesh.n_faces()) - on_copies;
+    *dropped_faces = file_faces >= 0 ? static_cast<int>(std::max(0LL, file_faces - read)) : static_cast<int>(on_copies);
   }
   return m;
 }
@@ -188,6 +269,12 @@ Pc2Data read_pc2(const std::string& path) {
   d.sample_count = static_cast<int32_t>(get_u32(h + 28));
   if (d.point_count < 0 || d.sample_count < 0) throw std::runtime_error(path + ": bad PC2 header");
   const size_t n = static_cast<size_t>(d.point_count) * static_cast<size_t>(d.sample_count) * 3;
+  // The header's counts against the file's size, before allocating for them.
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(path, ec);
+  if (ec || 4 * static_cast<unsigned long long>(n) > bytes)
+    throw std::runtime_error(path + ": PC2 header declares " + std::to_string(d.point_count) + " points x " +
+                             std::to_string(d.sample_count) + " samples, more than the file holds (truncated?)");
   std::vector<unsigned char> raw(4 * n);
   if (!in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size())))
     throw std::runtime_error(path + ": PC2 file is truncated");
