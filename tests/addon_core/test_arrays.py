@@ -92,3 +92,31 @@ def test_humanoid_check_names_what_is_missing():
     assert "no humanoid legs" in problem and "'thigh.L'–'shin.L'" in problem, problem
     assert "no readable description" in fit_report.humanoid_problem("{not json", heads, tails, names)
     assert fit_report.humanoid_refusal("x").startswith("Sweep Deform fits humanoid rigs only")
+
+
+def test_output_check_on_two_bones():
+    """core/output_check.py on two bones along +Y: a vertex 0.1 from its bone (above the floor,
+    5 % of a body 1.0 across) may move off it up to the bound, not beyond; the fallback is the
+    weighted rigid motion."""
+    check = addon_modules.import_core("output_check")
+    rest = np.eye(4, dtype=np.float32)
+    second = np.eye(4, dtype=np.float32)
+    second[3, 1] = 1.0  # column-major: translation in the last column
+    mats = np.concatenate([rest.ravel(), second.ravel()])
+    ids, w = np.array([[0, -1], [1, 0]]), np.array([[1.0, 0.0], [0.25, 0.75]], np.float32)
+    pts = np.array([[0.1, 0.5, 0.0], [0.1, 1.5, 0.0]], np.float32)
+    c = check.OutputCheck(pts, mats, np.array([1.0, 1.0]), ids, w)
+    np.testing.assert_allclose(c.ratios(pts, mats), [1.0, 1.0])
+    assert c.worst(pts, mats) == (0.0, -1, -1)  # every vertex within the bound
+    moved = pts.copy()
+    moved[0, 0] = 0.1 * check.RATIO_LIMIT * 0.99
+    assert c.ratios(moved, mats)[0] < check.RATIO_LIMIT and c.worst(moved, mats) == (0.0, -1, -1)
+    moved[0, 0] = 0.1 * check.RATIO_LIMIT * 1.5
+    ratio, vertex, bone = c.worst(moved, mats)
+    assert abs(ratio - check.RATIO_LIMIT * 1.5) < 1e-5 and vertex == 0 and bone == 0
+    moved[1] = np.nan  # a non-finite output is beyond the bound too
+    assert c.worst(moved, mats)[0] == np.inf
+    shifted = mats.copy()
+    shifted[12:15] = (1.0, 0.0, 0.0)  # bone 0 moves by +x
+    lbs = c.linear_blend(shifted)
+    np.testing.assert_allclose(lbs, [[1.1, 0.5, 0.0], [0.85, 1.5, 0.0]], atol=1e-6)

@@ -33,6 +33,13 @@ class Entry:
         self.frames = 0
         self.rest_checked = False
         self.armature_seen = None
+        # The per-frame output check (core/output_check.py): made on first use; the warning of
+        # the last frame that needed the fallback (empty after a good frame).
+        self.output_check = None
+        self.output_check_error = ""
+        self.warning = ""
+        self.fallback = None
+        self.fallback_frames = 0
         self.unusable = False
         self.last_pose = None
         self.rig = None

@@ -12,8 +12,8 @@ the mesh keeps its last good deformation and the panel says why.
 
 import numpy as np
 
-from ..core import arrays, checks, native
-from . import anatomy, bind_state, corrections, deformer_cache, modifier, persistence
+from ..core import arrays, checks, native, output_check
+from . import anatomy, bind_state, binding, corrections, deformer_cache, modifier, persistence
 
 #: What the user is told after a refused frame, and what happens.
 KEPT = "the mesh keeps its last good deformation until this is fixed"
@@ -56,6 +56,45 @@ def _rest_message(obj, arm, problem):
         problem = (f"the armature data of '{arm.name}' was replaced ('{data}' when bound, '{arm.data.name}' now): "
                    f"{problem}")
     return f"{problem[0].upper()}{problem[1:]}: bind again"
+
+
+def _output_check(e, obj, arm):
+    """The entry's OutputCheck, made on first use from the vertex groups (None, with the
+    reason in e.output_check_error, if it cannot be made)."""
+    if e.output_check is None and not e.output_check_error:
+        try:
+            ids, weights = binding.skin_weights(obj, arm, e.bone_names)
+            lengths = np.array([arm.data.bones[n].length for n in e.bone_names], np.float64)
+            e.output_check = output_check.OutputCheck(e.rest, e.rest_pose, lengths, ids, weights)
+        except (KeyError, ValueError, IndexError, MemoryError) as err:
+            e.output_check_error = f"{type(err).__name__}: {err}"
+            print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
+    return e.output_check
+
+
+def _checked_output(e, obj, arm, deformed, pose, depsgraph):
+    """The frame's deformed positions, or, when a vertex ends farther from its posed bones than
+    output_check.RATIO_LIMIT times its rest distance (a pose the sweeps cannot follow), the
+    linear blend skinning of the same pose; the panel then names the frame and the bone."""
+    check = _output_check(e, obj, arm)
+    if check is None:
+        return deformed
+    ratio, vertex, bone = check.worst(deformed, pose)
+    if ratio <= output_check.RATIO_LIMIT:
+        e.warning = ""
+        return deformed
+    frame = depsgraph.scene.frame_current if depsgraph is not None and depsgraph.scene else None
+    name = e.bone_names[bone] if 0 <= bone < len(e.bone_names) else f"bone {bone}"
+    shown = "inf" if not np.isfinite(ratio) else f"{ratio:.1f}"
+    message = (f"Frame {frame}: pose beyond what the sweeps can follow (vertex {vertex} is {shown}× its rest "
+               f"distance from '{name}', limit {output_check.RATIO_LIMIT:g}×): shown with linear blend skinning")
+    if message != e.warning:
+        print(f"Sweep Deform: '{obj.name}': {message}")
+    e.warning = message
+    e.fallback_frames += 1
+    if e.fallback is None:
+        e.fallback = np.empty_like(e.rest)
+    return check.linear_blend(pose, e.fallback)
 
 
 def evaluate(obj, depsgraph, render=False):
@@ -144,6 +183,7 @@ def evaluate(obj, depsgraph, render=False):
         e.refuse(obj, f"Unusable pose: {checks.name_bones(str(err), e.bone_names)}: {KEPT}")
         e.key = key
         return False
+    deformed = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
     if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")

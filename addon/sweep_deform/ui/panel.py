@@ -68,6 +68,12 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
             box.alert = True
             for line in _wrap(e.error):
                 box.label(text=line)
+        if e is not None and e.warning:
+            box = layout.box()
+            box.alert = True
+            box.label(text="Extreme pose", icon='ERROR')
+            for line in _wrap(e.warning):
+                box.label(text=line)
 
         row = layout.row(align=True)
         row.operator(bind_operators.OBJECT_OT_sweep_deform_bind.bl_idname,
