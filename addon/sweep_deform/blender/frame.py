@@ -19,14 +19,22 @@ from . import anatomy, bind_state, binding, corrections, deformer_cache, modifie
 KEPT = "the mesh keeps its last good deformation until this is fixed"
 
 
-def linked_mesh_message(obj):
-    """Why a linked mesh is not deformed (None if the mesh is local). Blender ignores an
-    add-on's writes into library data, so the offsets cannot go into it."""
+def linked_mesh_message(obj, md=None):
+    """Why a linked mesh is not deformed by Sweep Deform (None if the mesh is local). Blender
+    ignores an add-on's writes into library data, so the offsets cannot go into it. A library
+    saved by this version has its Armature modifier on and Sweep Deform off (for Blender
+    without the extension, binding.prepare_for_save), so the character follows the pose by
+    linear blend skinning here; one saved before shows the shape saved in it."""
     lib = obj.data.library
     if lib is None:
         return None
+    md_arm = binding.replaced_armature_modifier(obj)
+    by_armature = (md is None or not md.show_viewport) and md_arm is not None and md_arm.show_viewport \
+        and md_arm.object is not None
+    shown = ("so its Armature modifier deforms it here, as in Blender without the extension" if by_armature
+             else "so it shows the shape saved in that file")
     return (f"The mesh '{obj.data.name}' is linked from '{lib.filepath}': Sweep Deform cannot write its "
-            "deformation into linked data, so it shows the shape saved in that file. To animate it here, make "
+            f"deformation into linked data, {shown}. To animate it with Sweep Deform here, make "
             "it local (Object > Relations > Make Local > Selected Objects and Data), or a library override "
             "of it first")
 
@@ -107,6 +115,10 @@ def evaluate(obj, depsgraph, render=False):
     if md is None:
         bind_state.modifier_gone(obj)
         return False
+    linked = linked_mesh_message(obj, md)
+    if linked:
+        deformer_cache.entry(obj).refuse(obj, linked)
+        return False
     if not modifier.active(md, render):
         return False
     arm = s.armature
@@ -115,10 +127,6 @@ def evaluate(obj, depsgraph, render=False):
         bind_state.set_rebind(obj, f"{gone}: bind again")
         return False
     if arm.mode == 'EDIT':
-        return False
-    linked = linked_mesh_message(obj)
-    if linked:
-        deformer_cache.entry(obj).refuse(obj, linked)
         return False
     if obj.data.users > 1:
         bind_state.set_rebind(obj, f"The mesh '{obj.data.name}' is used by several objects: make it single "

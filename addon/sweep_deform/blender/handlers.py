@@ -41,6 +41,8 @@ def evaluate_scene(scene, depsgraph, render=False):
     """Updates every bound character of the scene. Returns how many were rewritten."""
     written = 0
     for obj in bound_objects.in_scene(scene):
+        if obj.sweep_deform.saved_for_blender_without_extension:
+            binding.restore_after_save(obj)  # appended, or made local: no load_post came
         mode = obj.mode
         if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
             bind_state.check_topology(obj)
