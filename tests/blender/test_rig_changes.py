@@ -16,14 +16,12 @@ import numpy as np
 import pytest
 
 import helpers
+from test_bad_input import bound_fixture as posed_fixture
 
 
 def bound_fixture():
-    char = helpers.load("fixture")
-    helpers.use_test_rig([char])
-    obj = helpers.bind(char)
-    helpers.pose_limbs(char, elbow=1.0, knee=0.8)
-    bpy.context.view_layer.update()
+    """The built-in character bound with the test rig and posed (test_bad_input's)."""
+    char, obj, _ = posed_fixture()
     assert helpers.sub("blender.deformer_cache").peek(obj).frames >= 1
     return char, obj
 

@@ -88,23 +88,25 @@ def _bound_meshes():
     return [o for o in bpy.data.objects if o.type == 'MESH' and o.sweep_deform.state != 'UNBOUND']
 
 
+def _each_bound_mesh(action, failure):
+    """`action(obj)` on every bound mesh; an error is printed with `failure`, never raised
+    (a save must not fail for it)."""
+    for obj in _bound_meshes():
+        try:
+            action(obj)
+        except (ReferenceError, AttributeError, RuntimeError) as e:
+            print(f"Sweep Deform: '{obj.name}': {failure}: {e}")
+
+
 @persistent
 def on_save_pre(*_args):
     """The file on disk deforms by the Armature modifier where the extension is missing."""
-    for obj in _bound_meshes():
-        try:
-            binding.prepare_for_save(obj)
-        except (ReferenceError, AttributeError, RuntimeError) as e:
-            print(f"Sweep Deform: '{obj.name}': not prepared for Blender without the extension: {e}")
+    _each_bound_mesh(binding.prepare_for_save, "not prepared for Blender without the extension")
 
 
 @persistent
 def on_save_post(*_args):
-    for obj in _bound_meshes():
-        try:
-            binding.restore_after_save(obj)
-        except (ReferenceError, AttributeError, RuntimeError) as e:
-            print(f"Sweep Deform: '{obj.name}': the modifiers were not restored after saving: {e}")
+    _each_bound_mesh(binding.restore_after_save, "the modifiers were not restored after saving")
 
 
 @persistent
