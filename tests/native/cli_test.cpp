@@ -433,6 +433,11 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
   EXPECT_NE(e.find("is not a count"), std::string::npos) << e;
   // Bounded counts still read.
   EXPECT_EQ(error("ok.ply", ply_head + "1" + ply_tail), "(no error)");
+  // Headers OpenMesh 9 loops forever on (found by fuzz_mesh_file): refused first.
+  e = error("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");
+  EXPECT_NE(e.find("the header has no end_header"), std::string::npos) << e;
+  e = error("bad_type.ply", ply_head + "1\nproperty lroperty float y\nend_header\n0 0 0\n");
+  EXPECT_NE(e.find("PLY header line 4: unknown property type"), std::string::npos) << e;
   // XYZ: a line that is not three finite numbers is an error naming the line, never skipped.
   e = error("nan.xyz", "1 2 3\nnan 0 0\n4 5 6\n");
   EXPECT_NE(e.find("nan.xyz:2: expected 'x y z' with finite numbers"), std::string::npos) << e;

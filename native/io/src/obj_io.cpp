@@ -33,7 +33,7 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open file");
   long long vertices = -1, faces = -1;
-  const auto number = [&](const std::string& word, const char* what) -> long long {
+  const auto number = [&](const std::string& word, const std::string& what) -> long long {
     // Digits only: a sign, an exponent or more than 18 digits is no count.
     if (word.empty() || word.size() > 18 || !std::all_of(word.begin(), word.end(), [](unsigned char c) { return std::isdigit(c); }))
       throw std::runtime_error(path + ": the header's " + what + " count '" + word.substr(0, 24) + "' is not a count");
@@ -41,17 +41,45 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
   };
   std::string line;
   if (ext == ".ply") {
+    // The whole header is checked here: OpenMesh 9's PLY reader loops forever on a header
+    // without "end_header" or with a property type it does not know (found by fuzz_mesh_file).
+    static const std::vector<std::string> kTypes = {"char", "uchar", "short", "ushort", "int", "uint",
+                                                    "float", "double", "int8", "uint8", "int16", "uint16",
+                                                    "int32", "uint32", "float32", "float64"};
+    const auto is_type = [&](const std::string& t) { return std::find(kTypes.begin(), kTypes.end(), t) != kTypes.end(); };
+    const auto bad = [&](int n, const std::string& why) {
+      throw std::runtime_error(path + ": PLY header line " + std::to_string(n) + ": " + why);
+    };
     int lines = 0;
-    while (std::getline(in, line) && ++lines < 10000) {
+    bool ended = false;
+    while (!ended && std::getline(in, line)) {
+      if (++lines > 10000) bad(lines, "no end_header in the first 10000 lines");
+      if (!line.empty() && line.back() == '\r') line.pop_back();
       std::istringstream ss(line);
-      std::string key, kind, count;
+      std::string key;
       ss >> key;
-      if (key == "end_header") break;
-      if (key != "element") continue;
-      ss >> kind >> count;
-      if (kind == "vertex") vertices = number(count, "vertex");
-      else if (kind == "face") faces = number(count, "face");
+      if (lines == 1) {
+        if (key != "ply") bad(1, "the file does not start with 'ply'");
+        continue;
+      }
+      if (key == "end_header") {
+        ended = true;
+      } else if (key == "element") {
+        std::string kind, count;
+        ss >> kind >> count;
+        if (kind == "vertex") vertices = number(count, "vertex");
+        else if (kind == "face") faces = number(count, "face");
+        else number(count, kind.substr(0, 24).c_str());
+      } else if (key == "property") {
+        std::string type, a, b;
+        ss >> type >> a >> b;
+        if (type == "list" ? !(is_type(a) && is_type(b)) : !is_type(type))
+          bad(lines, "unknown property type in '" + line.substr(0, 60) + "'");
+      } else if (key != "format" && key != "comment" && key != "obj_info" && !key.empty()) {
+        bad(lines, "unknown keyword '" + key.substr(0, 24) + "'");
+      }
     }
+    if (!ended) bad(lines, "the header has no end_header");
   } else {  // .off: "OFF" (maybe with the counts on the same line), comments, "nv nf ne"
     std::vector<std::string> words;
     while (words.size() < 3 && std::getline(in, line)) {
