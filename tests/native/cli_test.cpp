@@ -423,7 +423,7 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
   EXPECT_NE(e.find("declares 4000000000 vertices; at most 50000000 are read"), std::string::npos) << e;
   e = error("huge.off", "OFF\n4000000000 1 0\n0 0 0\n");
   EXPECT_NE(e.find("declares 4000000000 vertices"), std::string::npos) << e;
-  e = error("faces.off", "OFF 3 999999999 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");  // counts on the OFF line
+  e = error("faces.off", "OFF\n# a comment\n3 999999999 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
   EXPECT_NE(e.find("declares 999999999 faces; at most 100000000"), std::string::npos) << e;
   e = error("more_than_bytes.off", "OFF\n1000 0 0\n0 0 0\n");
   EXPECT_NE(e.find("no more than the file's"), std::string::npos) << e;
@@ -433,6 +433,30 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
   EXPECT_NE(e.find("is not a count"), std::string::npos) << e;
   // Bounded counts still read.
   EXPECT_EQ(error("ok.ply", ply_head + "1" + ply_tail), "(no error)");
+  // A damaged OFF keyword: OpenMesh took the bytes after it for counts (4.7 GB, fuzz_mesh_file).
+  e = error("damaged.off", std::string("OFF&9)") + std::string(32, '\xff') + "\n");
+  EXPECT_NE(e.find("not a text OFF file"), std::string::npos) << e;
+  e = error("binary.off", "OFF BINARY\n");
+  EXPECT_NE(e.find("binary OFF files are not read"), std::string::npos) << e;
+  e = error("face_size.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n-2 1 0\n");  // was a 2 GB allocation
+  EXPECT_NE(e.find("face size count '-2' is not a count"), std::string::npos) << e;
+  e = error("face_index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+  EXPECT_NE(e.find("OFF face index 7 is not a vertex (item 0)"), std::string::npos) << e;
+  // Counts on the keyword line: OpenMesh reads the next line for them (took "0-01" for -1).
+  e = error("same_line.off", "OFF 4 1 0\n0-01\n0 1\n");
+  EXPECT_NE(e.find("the OFF keyword line holds '4': the counts belong on the next line"), std::string::npos) << e;
+  // OBJ faces OpenMesh 9 crashes or reads out of range on (fuzz_mesh_file): refused first.
+  e = error("no_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf /1 2 3\n");
+  EXPECT_NE(e.find("no_index.obj:4: a face corner without a vertex index"), std::string::npos) << e;
+  e = error("out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n");
+  EXPECT_NE(e.find("out_of_range.obj:4: face corner '4' names no vertex defined above it"), std::string::npos) << e;
+  EXPECT_EQ(error("relative.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf -3/1 -2/1 -1/1\n"), "(no error)");
+  e = error("format.ply", std::string("ply\nformat ascii 0.\xb5") + std::string(3, '\0') + "ement vertex 6\n");
+  EXPECT_NE(e.find("PLY header line 2: a NUL byte in the header"), std::string::npos) << e;
+  e = error("format2.ply", "ply\nformat ascii 2.0\nelement vertex 1\nproperty float x\nend_header\n0\n");
+  EXPECT_NE(e.find("PLY header line 2: unknown format 'format ascii 2.0'"), std::string::npos) << e;
+  e = error("orphan.ply", "ply\nformat ascii 1.0\nproperty list uchar int vertex_indices\nend_header\n");
+  EXPECT_NE(e.find("PLY header line 3: a property before any element"), std::string::npos) << e;
   // Headers OpenMesh 9 loops forever on (found by fuzz_mesh_file): refused first.
   e = error("no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n");
   EXPECT_NE(e.find("the header has no end_header"), std::string::npos) << e;
@@ -443,6 +467,8 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
   EXPECT_NE(e.find("nan.xyz:2: expected 'x y z' with finite numbers"), std::string::npos) << e;
   e = error("inf.xyz", "1 2 3\n4 inf 6\n");
   EXPECT_NE(e.find("inf.xyz:2:"), std::string::npos) << e;
+  e = error("huge.xyz", "1 2 3\n" + std::string(150, '9') + " 5 6\n");  // beyond float: was undefined
+  EXPECT_NE(e.find("huge.xyz:2: expected 'x y z' with finite numbers"), std::string::npos) << e;
   e = error("text.xyz", "v 1 2 3\n");
   EXPECT_NE(e.find("text.xyz:1:"), std::string::npos) << e;
   // PC2: sizes against the file before allocating.

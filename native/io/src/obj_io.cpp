@@ -51,20 +51,32 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
       throw std::runtime_error(path + ": PLY header line " + std::to_string(n) + ": " + why);
     };
     int lines = 0;
-    bool ended = false;
+    bool ended = false, in_element = false;
     while (!ended && std::getline(in, line)) {
       if (++lines > 10000) bad(lines, "no end_header in the first 10000 lines");
       if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (line.find('\0') != std::string::npos) bad(lines, "a NUL byte in the header");
       std::istringstream ss(line);
       std::string key;
       ss >> key;
+      if (key == "format") {  // OpenMesh's header check crashes on a damaged one (fuzz_mesh_file)
+        std::string kind, version, more;
+        ss >> kind >> version;
+        if ((kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") ||
+            version != "1.0" || (ss >> more))
+          bad(lines, "unknown format '" + line.substr(0, 60) + "'");
+        continue;
+      }
       if (lines == 1) {
         if (key != "ply") bad(1, "the file does not start with 'ply'");
         continue;
       }
       if (key == "end_header") {
         ended = true;
+      } else if (key == "property" && !in_element) {  // OpenMesh crashes on it (fuzz_mesh_file)
+        bad(lines, "a property before any element");
       } else if (key == "element") {
+        in_element = true;
         std::string kind, count;
         ss >> kind >> count;
         if (kind == "vertex") vertices = number(count, "vertex");
@@ -80,20 +92,79 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
       }
     }
     if (!ended) bad(lines, "the header has no end_header");
-  } else {  // .off: "OFF" (maybe with the counts on the same line), comments, "nv nf ne"
+  } else {  // .off: "[ST][C][N][4]OFF" (maybe with the counts on the same line), comments, "nv nf ne"
+    // Only this text form is passed to OpenMesh, which otherwise takes whatever follows a
+    // damaged keyword for counts (a 4.7 GB allocation, found by fuzz_mesh_file).
     std::vector<std::string> words;
-    while (words.size() < 3 && std::getline(in, line)) {
+    bool keyword = false;
+    while (words.size() < 2 && std::getline(in, line)) {
       const size_t hash = line.find('#');
       if (hash != std::string::npos) line.resize(hash);
       std::istringstream ss(line);
       for (std::string w; ss >> w;) {
-        if (words.empty() && w.size() >= 3 && w.compare(w.size() - 3, 3, "OFF") == 0) continue;  // OFF, COFF, NOFF...
+        if (!keyword) {
+          static const std::vector<std::string> kKeywords = {"OFF", "COFF", "NOFF", "CNOFF", "STOFF", "STCOFF",
+                                                             "STNOFF", "STCNOFF", "4OFF", "C4OFF", "N4OFF"};
+          if (std::find(kKeywords.begin(), kKeywords.end(), w) == kKeywords.end())
+            throw std::runtime_error(path + ": not a text OFF file (it starts with '" + w.substr(0, 24) +
+                                     "'; binary and nOFF files are not read)");
+          keyword = true;
+          std::string more;
+          if (ss >> more) {
+            // OpenMesh reads the counts from the next line whatever this one holds after the
+            // keyword (it took "0-01" there for -1 vertices: 17 GB, found by fuzz_mesh_file).
+            if (more == "BINARY") throw std::runtime_error(path + ": binary OFF files are not read");
+            throw std::runtime_error(path + ": the OFF keyword line holds '" + more.substr(0, 24) +
+                                     "': the counts belong on the next line");
+          }
+          break;
+        }
         words.push_back(w);
       }
     }
-    if (words.size() >= 2) {
-      vertices = number(words[0], "vertex");
-      faces = number(words[1], "face");
+    if (words.size() < 2) throw std::runtime_error(path + ": the OFF header has no vertex and face counts");
+    vertices = number(words[0], "vertex");
+    faces = number(words[1], "face");
+    if (vertices <= kMaxMeshVertices && faces <= kMaxMeshFaces && vertices <= static_cast<long long>(bytes) &&
+        faces <= static_cast<long long>(bytes)) {
+      // The body too: OpenMesh takes a negative or damaged face size for a count of billions
+      // (found by fuzz_mesh_file). Vertex lines: three numbers; face lines: n in 3..1024, then
+      // n indices below the vertex count.
+      const auto body_error = [&](long long item, const std::string& why) {
+        throw std::runtime_error(path + ": OFF " + why + " (item " + std::to_string(item) + ")");
+      };
+      const auto next = [&](std::string& w) -> bool {
+        for (;;) {
+          if (in >> w) {
+            if (w[0] != '#') return true;
+            std::getline(in, line);  // a comment
+            continue;
+          }
+          return false;
+        }
+      };
+      std::string w;
+      for (long long v = 0; v < vertices; ++v) {
+        std::getline(in >> std::ws, line);
+        const size_t hash = line.find('#');
+        if (hash != std::string::npos) line.resize(hash);
+        std::istringstream ss(line);
+        double c[3];
+        if (!(ss >> c[0] >> c[1] >> c[2]) || !(std::abs(c[0]) <= 1e30 && std::abs(c[1]) <= 1e30 && std::abs(c[2]) <= 1e30))
+          body_error(v, "vertex line is not three finite numbers");
+      }
+      for (long long f = 0; f < faces; ++f) {
+        if (!next(w)) body_error(f, "face list ends early");
+        const long long n = number(w, "face size");
+        if (n < 3 || n > 1024) body_error(f, "face size " + std::to_string(n) + " is outside 3..1024");
+        std::getline(in, line);
+        std::istringstream ss(line);
+        for (long long k = 0; k < n; ++k) {
+          std::string idx;
+          if (!(ss >> idx)) body_error(f, "face has fewer indices than its size");
+          if (number(idx, "face index") >= vertices) body_error(f, "face index " + idx + " is not a vertex");
+        }
+      }
     }
   }
   // Every element takes at least one byte of the file (three floats in a binary PLY, "x y z" in text).
@@ -108,15 +179,49 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
   return {vertices, faces};
 }
 
-/// The "v" and "f" lines of an OBJ file.
+/// The "v" and "f" lines of an OBJ file, which is checked line by line first: OpenMesh 9's OBJ
+/// reader crashes on a face corner without a vertex index ("f /1 2 5") and indexes out of
+/// range on bad indices (found by fuzz_mesh_file). Every face corner must be v, v/vt, v//vn
+/// or v/vt/vn with v a vertex defined above it (1-based, or negative: relative); NUL bytes
+/// and more than kMaxMeshVertices vertices are refused.
 std::pair<long long, long long> obj_counts(const std::string& path) {
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   std::string line;
-  long long v = 0, f = 0;
+  long long v = 0, f = 0, number = 0;
+  const auto bad = [&](const std::string& why) {
+    throw std::runtime_error(path + ":" + std::to_string(number) + ": " + why);
+  };
+  const auto index = [&](const std::string& s, size_t a, size_t b, bool required) -> bool {
+    if (a == b) {
+      if (required) bad("a face corner without a vertex index");
+      return false;
+    }
+    size_t i = a + (s[a] == '-' ? 1 : 0);
+    if (i == b || b - i > 12) bad("bad index '" + s.substr(a, std::min<size_t>(b - a, 24)) + "'");
+    for (size_t k = i; k < b; ++k)
+      if (!std::isdigit(static_cast<unsigned char>(s[k]))) bad("bad index '" + s.substr(a, std::min<size_t>(b - a, 24)) + "'");
+    return true;
+  };
   while (std::getline(in, line)) {
+    ++number;
+    if (line.find('\0') != std::string::npos) bad("a NUL byte (not a text OBJ file)");
     if (line.size() > 1 && std::isspace(static_cast<unsigned char>(line[1]))) {
-      if (line[0] == 'v') ++v;
-      else if (line[0] == 'f') ++f;
+      if (line[0] == 'v' && ++v > kMaxMeshVertices) bad("more than " + std::to_string(kMaxMeshVertices) + " vertices");
+      if (line[0] != 'f') continue;
+      ++f;
+      std::istringstream ss(line.substr(2));
+      for (std::string c; ss >> c;) {
+        const size_t s1 = c.find('/'), s2 = s1 == std::string::npos ? s1 : c.find('/', s1 + 1);
+        const size_t end_v = std::min(s1, c.size());
+        index(c, 0, end_v, true);
+        const long long vi = std::stoll(c.substr(0, end_v));
+        if (vi == 0 || vi > v || -vi > v) bad("face corner '" + c.substr(0, 24) + "' names no vertex defined above it");
+        if (s1 != std::string::npos) {
+          index(c, s1 + 1, std::min(s2, c.size()), false);
+          if (s2 != std::string::npos) index(c, s2 + 1, c.size(), false);
+          if (s2 != std::string::npos && c.find('/', s2 + 1) != std::string::npos) bad("bad face corner '" + c.substr(0, 24) + "'");
+        }
+      }
     }
   }
   return {v, f};
@@ -137,7 +242,9 @@ MeshData read_points(const std::string& path) {
     double x, y, z;
     // A line that does not start with three finite numbers ("nan 0 0", "v 1 2 3") is an
     // error, never skipped: every point of the file is deformed, in order.
-    if (!(ss >> x >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+    // Beyond 1e30 is refused too: a double past float's range made the conversion undefined
+    // (found by fuzz_mesh_file).
+    if (!(ss >> x >> y >> z) || !(std::abs(x) <= 1e30) || !(std::abs(y) <= 1e30) || !(std::abs(z) <= 1e30))
       throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'x y z' with finite numbers");
     if (m.positions.size() / 3 >= static_cast<size_t>(kMaxMeshVertices))
       throw std::runtime_error(path + ": more than " + std::to_string(kMaxMeshVertices) + " points");

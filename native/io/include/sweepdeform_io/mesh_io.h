@@ -24,6 +24,8 @@ constexpr long long kMaxMeshFaces = 100'000'000;
 /// into fans, faces OpenMesh cannot add to a manifold mesh dropped and counted in
 /// `dropped_faces`; the vertices are exactly the file's, never the copies OpenMesh makes for
 /// such faces) or .xyz / .txt / .pts (one point "x y z ..." per line, '#' comments).
+/// OFF files are read in their text form only ([ST][C][N][4]OFF; not binary, not nOFF), PLY
+/// files only with a header this reader understands (types, end_header).
 /// Throws std::runtime_error naming the file when it cannot be read, has no vertices, declares
 /// more than kMaxMeshVertices / kMaxMeshFaces, or has a point line that is not three finite
 /// numbers.
