@@ -105,6 +105,19 @@ def _checked_output(e, obj, arm, deformed, pose, depsgraph):
     return check.linear_blend(pose, e.fallback)
 
 
+def _bad_channels(arm_eval):
+    """" (bone 'x': its rotation_quaternion is NaN)" for the pose channels that are not finite
+    (Blender turns a NaN quaternion into a zero matrix, which the core can only call
+    degenerate), or ""."""
+    found = []
+    for pb in arm_eval.pose.bones:
+        for channel in ("location", "rotation_quaternion", "rotation_euler", "rotation_axis_angle", "scale"):
+            values = tuple(getattr(pb, channel))
+            if not all(np.isfinite(values)):
+                found.append(f"bone '{pb.name}': its {channel} is {'NaN' if any(np.isnan(values)) else 'infinite'}")
+    return f" ({'; '.join(found[:3])})" if found else ""
+
+
 def evaluate(obj, depsgraph, render=False):
     """Updates the offsets of one bound mesh object for the pose in `depsgraph`.
     Returns True if it wrote new offsets."""
@@ -188,7 +201,8 @@ def evaluate(obj, depsgraph, render=False):
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
-        e.refuse(obj, f"Unusable pose: {checks.name_bones(str(err), e.bone_names)}: {KEPT}")
+        why = checks.name_bones(str(err), e.bone_names) + _bad_channels(arm_eval)
+        e.refuse(obj, f"Unusable pose: {why}: {KEPT}")
         e.key = key
         return False
     deformed = _checked_output(e, obj, arm, deformed, pose, depsgraph)
