@@ -68,3 +68,72 @@ def test_sweep_labels_prefer_the_fitting_report():
     report = '{"chains": [{"name": "arm_l", "sweep": 1}, {"name": "tail", "sweep": -1}]}'
     labels = addon_modules.import_core("fit_report").sweep_labels([[0, 1], [1, 2, 2]], ["a", "b", "c"], report)
     assert labels == ["a – b", "arm_l"]
+
+
+def _report(legs_down=True, arms=2, neck=True):
+    """A fitting report of a skeleton along +Z (hips at 0, head at 1.6): bones 0 torso, 1 neck,
+    2-3 arms, 4-7 legs (down when `legs_down`, else forward, as a quadruped's)."""
+    import json
+    chains = [{"kind": "torso", "bones": [0], "end_bone": 1 if neck else -1}]
+    if neck:
+        chains.append({"kind": "neck", "bones": [1]})
+    chains += [{"kind": "arm", "bones": [2 + i]} for i in range(arms)]
+    chains += [{"kind": "leg", "bones": [4 + 2 * i, 5 + 2 * i]} for i in range(2)]
+    return json.dumps({"body": {"up": [0, 0, 1]}, "chains": chains})
+
+
+def _skeleton(legs_down=True):
+    heads = np.zeros((8, 3))
+    tails = np.zeros((8, 3))
+    heads[0], tails[0] = (0, 0, 0), (0, 0, 1.2)
+    heads[1], tails[1] = (0, 0, 1.2), (0, 0, 1.6)
+    heads[2], tails[2] = (0.2, 0, 1.2), (0.8, 0, 1.2)
+    heads[3], tails[3] = (-0.2, 0, 1.2), (-0.8, 0, 1.2)
+    for i, x in enumerate((0.1, -0.1)):
+        d = np.array((0, 0, -0.4)) if legs_down else np.array((0, 0.4, -0.05))
+        heads[4 + 2 * i] = (x, 0, 0)
+        tails[4 + 2 * i] = heads[5 + 2 * i] = heads[4 + 2 * i] + d
+        tails[5 + 2 * i] = heads[5 + 2 * i] + d
+    return heads, tails
+
+
+def test_humanoid_check_names_what_is_missing():
+    fit_report = addon_modules.import_core("fit_report")
+    names = ["spine", "neck", "arm.L", "arm.R", "thigh.L", "shin.L", "thigh.R", "shin.R"]
+    heads, tails = _skeleton()
+    assert fit_report.humanoid_problem(_report(), heads, tails, names) is None
+    assert "two arms (found 0)" in fit_report.humanoid_problem(_report(arms=0), heads, tails, names)
+    assert "neck or head" in fit_report.humanoid_problem(_report(neck=False), heads, tails, names)
+    heads, tails = _skeleton(legs_down=False)  # a quadruped's hind legs, along its spine's normal
+    problem = fit_report.humanoid_problem(_report(), heads, tails, names)
+    assert "no humanoid legs" in problem and "'thigh.L'–'shin.L'" in problem, problem
+    assert "no readable description" in fit_report.humanoid_problem("{not json", heads, tails, names)
+    assert fit_report.humanoid_refusal("x").startswith("Sweep Deform fits humanoid rigs only")
+
+
+def test_output_check_on_two_bones():
+    """core/output_check.py on two bones along +Y: a vertex 0.1 from its bone (above the floor,
+    5 % of a body 1.0 across) may move off it up to the bound, not beyond; the fallback is the
+    weighted rigid motion."""
+    check = addon_modules.import_core("output_check")
+    rest = np.eye(4, dtype=np.float32)
+    second = np.eye(4, dtype=np.float32)
+    second[3, 1] = 1.0  # column-major: translation in the last column
+    mats = np.concatenate([rest.ravel(), second.ravel()])
+    ids, w = np.array([[0, -1], [1, 0]]), np.array([[1.0, 0.0], [0.25, 0.75]], np.float32)
+    pts = np.array([[0.1, 0.5, 0.0], [0.1, 1.5, 0.0]], np.float32)
+    c = check.OutputCheck(pts, mats, np.array([1.0, 1.0]), ids, w)
+    np.testing.assert_allclose(c.ratios(pts, mats), [1.0, 1.0])
+    assert c.worst(pts, mats) == (0.0, -1, -1)  # every vertex within the bound
+    moved = pts.copy()
+    moved[0, 0] = 0.1 * check.RATIO_LIMIT * 0.99
+    assert c.ratios(moved, mats)[0] < check.RATIO_LIMIT and c.worst(moved, mats) == (0.0, -1, -1)
+    moved[0, 0] = 0.1 * check.RATIO_LIMIT * 1.5
+    ratio, vertex, bone = c.worst(moved, mats)
+    assert abs(ratio - check.RATIO_LIMIT * 1.5) < 1e-5 and vertex == 0 and bone == 0
+    moved[1] = np.nan  # a non-finite output is beyond the bound too
+    assert c.worst(moved, mats)[0] == np.inf
+    shifted = mats.copy()
+    shifted[12:15] = (1.0, 0.0, 0.0)  # bone 0 moves by +x
+    lbs = c.linear_blend(shifted)
+    np.testing.assert_allclose(lbs, [[1.1, 0.5, 0.0], [0.85, 1.5, 0.0]], atol=1e-6)

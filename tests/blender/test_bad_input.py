@@ -99,6 +99,8 @@ def test_bad_bone_transform(label, channel, value, usable):
     else:
         message = assert_refused(obj, good, f"bone '{bone}'", "Unusable pose")
         print(f"{label}: {message}")
+        if any(np.isnan(value)):  # issue 15: said as NaN, not only as "determinant 0"
+            assert f"bone '{bone}': its {channel} is NaN" in message, message
         # The overlay and key edits stay on the pose the mesh shows.
         assert helpers.sub("blender.key_ellipses").overlay_data(obj) is not None
     np.testing.assert_array_equal(helpers.base_positions(obj), base)  # the rest mesh untouched

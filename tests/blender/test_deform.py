@@ -29,7 +29,7 @@ def test_bind_and_pose_elbows_and_knees(character):
     assert md_names.index("Sweep Deform") < md_names.index(obj.sweep_deform.armature_modifier)
     arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
     assert not arm_md.show_viewport and not arm_md.show_render
-    assert arm_md.object is None  # no depsgraph relation to the pose any more
+    assert arm_md.object == character.armature  # the artist's set-up is kept (issue 15)
 
     base = helpers.base_positions(obj)
     bpy.context.view_layer.update()

@@ -4,11 +4,12 @@ override, instanced as a linked collection, and appended. Each test first writes
 file into SWEEPDEFORM_TEST_TMP: the built-in character, bound with the test rig, in a
 collection "Character", saved posed.
 
-What is expected: Blender ignores an add-on's writes into linked data, so a linked character
-(object and mesh linked, no override) keeps the shape saved in its library, and its panel says
-so and how to make a library override; a library override deforms as the core says (its mesh
-stays linked: the offsets go into a local carrier, issue 16), and so does a local copy
-(appended, or made local). Binding linked data again is refused with a message. Nothing raises in the
+What is expected: Blender ignores an add-on's writes into linked data. A character linked
+without an override was saved for Blender without the extension (issue 15: Armature modifier on,
+Sweep Deform off), so it follows the pose by its Armature modifier, and its panel says so and how
+to make a library override; a library override deforms as the core says (its mesh stays linked:
+the offsets go into a local carrier, issue 16), and so does a local copy (appended, or made
+local). Binding linked data again is refused with a message. Nothing raises in the
 console, the source file is never written, and the file that links it saves and reopens."""
 
 import hashlib
@@ -88,13 +89,19 @@ def save_and_reopen(name):
     bpy.ops.wm.open_mainfile(filepath=path)
 
 
-def assert_keeps_saved_shape(body, saved):
-    """The linked object is not written: it shows the shape saved in the library, the panel
-    says why and what to do; the binding's state is untouched."""
+def assert_deforms_by_armature_modifier(body, saved):
+    """The linked mesh is not written: its Armature modifier (on in the library, which was
+    saved for Blender without the extension) deforms it, so it follows the pose, unlike the
+    saved shape; the panel says why and what to do; the binding's state is untouched."""
     bpy.context.view_layer.update()
-    np.testing.assert_array_equal(helpers.evaluated_positions(body)[0], saved)
+    md_sweep = helpers.sub("blender.modifier").find(body)
+    md_arm = body.modifiers[body.sweep_deform.armature_modifier]
+    assert not md_sweep.show_viewport and md_arm.show_viewport and md_arm.object == body.sweep_deform.armature
+    co = helpers.evaluated_positions(body)[0]
+    assert np.isfinite(co).all() and np.abs(co - saved).max() > 1e-3  # posed otherwise than saved
     e = helpers.sub("blender.deformer_cache").peek(body)
     assert e is not None and "is linked from" in e.error and "library override" in e.error, e and e.error
+    assert "its Armature modifier deforms it here" in e.error, e.error
     assert body.sweep_deform.state == 'BOUND' and body.sweep_deform.message == ""
 
 
@@ -106,12 +113,12 @@ def test_linked_character():
     body, arm = members(coll)
     assert body.library is not None and body.data.library is not None
     pose(arm, 1.3, 0.2)  # pose channels of linked data can be set (they are not saved)
-    assert_keeps_saved_shape(body, saved)
+    assert_deforms_by_armature_modifier(body, saved)
     assert_bind_refused(body, "linked from")
     save_and_reopen("links_character.blend")
     body, arm = members(bpy.data.collections[COLLECTION])
     pose(arm, 0.8, 1.1)
-    assert_keeps_saved_shape(body, saved)
+    assert_deforms_by_armature_modifier(body, saved)
     assert sha1(src) == digest  # the library file is never written
     assert handler_failures() == before
 
@@ -161,7 +168,8 @@ def test_library_override_deforms():
 
 def test_linked_collection_instance():
     """Add > Collection Instance of a linked character: its objects are not in the scene's
-    object list, only instanced, and their mesh is linked: it shows the saved shape."""
+    object list, only instanced, and their mesh is linked: it deforms by its Armature
+    modifier, as saved for Blender without the extension."""
     src, digest, saved = write_source("instanced_src.blend")
     before = handler_failures()
     coll = load_collection(src, link=True)
@@ -175,10 +183,14 @@ def test_linked_collection_instance():
     assert body.name not in bpy.context.scene.objects
     pose(arm, 0.2, 1.0)
     bpy.context.view_layer.update()
-    np.testing.assert_array_equal(helpers.evaluated_positions(body)[0], saved)
+    first = helpers.evaluated_positions(body)[0]
+    assert np.abs(first - saved).max() > 1e-3  # follows the pose (Armature modifier)
+    assert not helpers.sub("blender.modifier").find(body).show_viewport
     save_and_reopen("instances_character.blend")
     body, arm = members(bpy.data.collections[COLLECTION])
-    np.testing.assert_array_equal(helpers.evaluated_positions(body)[0], saved)
+    pose(arm, 0.2, 1.0)  # a linked pose is not saved: the same pose again
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(helpers.evaluated_positions(body)[0], first)
     assert sha1(src) == digest
     assert handler_failures() == before
 

@@ -178,3 +178,90 @@ def test_undo_after_bind_in_the_interface():
     # The panels drew without a Python error.
     assert out["volumes_drawn"]
     assert "OBJECT_PT_sweep_deform" not in log and "Traceback" not in log, log[-3000:]
+
+
+WITHOUT_EXTENSION = r'''
+import bpy, sys, json, numpy as np
+assert not any('sweep_deform' in m for m in sys.modules), 'the extension is loaded'
+obj = bpy.data.objects[{mesh!r}]
+dg = bpy.context.evaluated_depsgraph_get()
+me = obj.evaluated_get(dg).to_mesh()
+co = np.empty(len(me.vertices) * 3, np.float32)
+me.vertices.foreach_get('co', co)
+np.save({dump!r}, co.reshape(-1, 3))
+md = obj.modifiers[{arm_md!r}]
+sweep = next(m for m in obj.modifiers if m.type == 'NODES')
+print("RESULT " + json.dumps(dict(object=md.object.name if md.object else None, viewport=md.show_viewport,
+                                  render=md.show_render, sweep=[sweep.show_viewport, sweep.show_render])))
+'''
+
+
+def test_file_saved_bound_deforms_by_armature_modifier_without_extension():
+    """Issue 15: a file saved while bound, opened where the extension is missing (a render
+    farm node), deforms by its Armature modifier, which still names the armature; the
+    extension itself switches that modifier off again after the save and on load."""
+    import json
+    import subprocess
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    s = obj.sweep_deform
+    arm_md = obj.modifiers[s.armature_modifier]
+    assert arm_md.object == char.armature and not arm_md.show_viewport and not arm_md.show_render
+    helpers.pose_limbs(char, elbow=1.3, knee=0.9)
+    bpy.context.view_layer.update()
+    sweep = check_equals_core(obj)
+    lbs = helpers.armature_modifier_positions(obj)
+    assert np.abs(sweep - lbs).max() > 1e-3  # the two deformations differ: the test can tell them apart
+    path = os.path.join(helpers.tmp_dir(), "bound_for_farm.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    # After the save, this session goes on with Sweep Deform exactly as before.
+    assert not arm_md.show_viewport and not arm_md.show_render and arm_md.object == char.armature
+    md_sweep = helpers.sub("blender.modifier").find(obj)
+    assert md_sweep.show_viewport and md_sweep.show_render
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], sweep)
+
+    dump = os.path.join(helpers.tmp_dir(), "bound_for_farm.npy")
+    if os.path.exists(dump):
+        os.remove(dump)
+    script = WITHOUT_EXTENSION.format(mesh=obj.name, dump=dump, arm_md=arm_md.name)
+    proc = subprocess.run([bpy.app.binary_path, "-b", "--factory-startup", path, "--python-exit-code", "1",
+                           "--python-expr", script], capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    out = json.loads([x for x in proc.stdout.splitlines() if x.startswith("RESULT ")][-1][len("RESULT "):])
+    assert out["object"] == char.armature_name and out["viewport"] and out["render"], out
+    assert out["sweep"] == [False, False], out  # never deformed twice
+    farm = np.load(dump)
+    assert np.abs(farm - lbs).max() <= 1e-5 * helpers.diagonal(lbs), np.abs(farm - lbs).max()
+
+    # With the extension: the same file opens deforming by Sweep Deform, Armature modifier off.
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj = bpy.data.objects[char.mesh_name]
+    arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
+    assert not arm_md.show_viewport and not arm_md.show_render and arm_md.object == char.armature
+    md_sweep = helpers.sub("blender.modifier").find(obj)
+    assert md_sweep.show_viewport and md_sweep.show_render
+    assert not obj.sweep_deform.saved_for_blender_without_extension
+    bpy.context.view_layer.update()
+    np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], sweep)
+    helpers.pose_limbs(char, elbow=0.4, knee=1.2)  # and it deforms on
+    bpy.context.view_layer.update()
+    check_equals_core(obj)
+
+
+def test_user_toggles_of_the_sweep_modifier_survive_a_save():
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    md_sweep = helpers.sub("blender.modifier").find(obj)
+    md_sweep.show_render = False  # the artist's choice
+    path = os.path.join(helpers.tmp_dir(), "toggles.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    assert md_sweep.show_viewport and not md_sweep.show_render
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj = bpy.data.objects[char.mesh_name]
+    md_sweep = helpers.sub("blender.modifier").find(obj)
+    assert md_sweep.show_viewport and not md_sweep.show_render
+    arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
+    assert not arm_md.show_viewport and not arm_md.show_render

@@ -95,7 +95,7 @@ def test_f12_and_animation_render_the_pose_of_each_frame():
     md_sweep.show_render, md_arm.show_render, md_arm.object = False, True, obj.sweep_deform.armature
     scene.frame_set(2)
     lbs = render_still(os.path.join(out, "still_2_armature.png"))
-    md_sweep.show_render, md_arm.show_render, md_arm.object = True, False, None
+    md_sweep.show_render, md_arm.show_render = True, False
     pose_change, vs_lbs = differing(rest, raised), differing(raised, lbs)
     print(f"F12: {pose_change} pixels change with the pose, {vs_lbs} differ from the Armature modifier's")
     assert pose_change > 40

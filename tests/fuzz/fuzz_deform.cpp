@@ -8,7 +8,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     sd_deformer* d = nullptr;
     if (sd_deformer_create(arm.rig, binding, &d) != SD_OK) __builtin_trap();
     sdfuzz::Bytes in(data, size);
-    sd_deformer_set_volume_preservation(d, in.take<uint8_t>() & 1, in.take<float>());
+    const int enabled = in.take<uint8_t>() & 1;  // (read in this order: argument order is unspecified)
+    const float strength = in.take<float>();
+    sd_deformer_set_volume_preservation(d, enabled, strength);
     float offsets[1] = {in.take<float>()};
     sd_deformer_set_volume_offsets(d, 1, offsets);
     float pose[48];

@@ -62,6 +62,35 @@ struct Arm {
     }
     ~Arm() { sd_rig_destroy(rig); }
 
+    /// The rig's blob (sd_rig_serialize).
+    std::vector<uint8_t> rig_blob() const {
+        int64_t n = 0;
+        sd_rig_serialize(rig, nullptr, 0, &n);
+        std::vector<uint8_t> b(static_cast<size_t>(n));
+        if (sd_rig_serialize(rig, b.data(), n, &n) != SD_OK) __builtin_trap();
+        return b;
+    }
+    /// The blob of bind()'s binding.
+    std::vector<uint8_t> binding_blob() const {
+        sd_binding* h = bind();
+        int64_t n = 0;
+        sd_binding_serialize(h, nullptr, 0, &n);
+        std::vector<uint8_t> b(static_cast<size_t>(n));
+        if (sd_binding_serialize(h, b.data(), n, &n) != SD_OK) __builtin_trap();
+        sd_binding_destroy(h);
+        return b;
+    }
+    /// Triangles of bind()'s ring mesh (11 rings of 8 points, quads split).
+    static std::vector<int32_t> ring_triangles() {
+        std::vector<int32_t> t;
+        for (int r = 0; r < 10; ++r)
+            for (int s = 0; s < 8; ++s) {
+                const int32_t a = 8 * r + s, b = 8 * r + (s + 1) % 8, c = a + 8, d = b + 8;
+                t.insert(t.end(), {a, b, d, a, d, c});
+            }
+        return t;
+    }
+
     /// A ring mesh around the sweep, bound to it (for targets that need a binding).
     sd_binding* bind() const {
         std::vector<float> mesh;
@@ -75,6 +104,21 @@ struct Arm {
         return b;
     }
 };
+
+/// The arm bent by `angle` radians about +z at the elbow (bone 1's head); bone 2 follows.
+inline std::vector<float> bent_pose(float angle) {
+    const float c = std::cos(angle), s = std::sin(angle);
+    std::vector<float> p(48, 0.0f);
+    for (int b = 0; b < 3; ++b) p[16 * b + 15] = 1.0f;
+    p[0] = p[5] = p[10] = 1.0f;  // bone 0 at rest
+    for (int b = 1; b < 3; ++b) {
+        float* m = &p[16 * b];
+        m[0] = c, m[1] = s, m[4] = -s, m[5] = c, m[10] = 1.0f;  // columns: rotation about z
+        const float along = b == 1 ? 0.0f : 1.0f;               // bone 2's head 1 along bone 1
+        m[12] = 1.0f + c * along, m[13] = s * along, m[14] = 0.0f;
+    }
+    return p;
+}
 
 /// Every output must be finite when a call succeeded.
 inline void require_finite(const float* p, size_t n) {

@@ -1,30 +1,210 @@
-// Writes valid seed inputs for the blob fuzz targets: make_fuzz_seeds <corpus dir>.
+// Writes the seed corpora of every fuzz target from the native tests' synthetic arm (the
+// cases the unit tests use: rest, bent 90 and 170 degrees, the ring mesh, its fitting input):
+//   make_fuzz_seeds <corpus dir>      (scripts/fuzz runs it; the output is in the repository)
+// Each seed follows its target's byte layout (sdfuzz::Bytes), so the fuzzer starts from
+// inputs that reach deep into the code instead of failing the first check.
 #include "fuzz_fixture.h"
 
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
-static void write(const std::string& path, const std::vector<uint8_t>& bytes) {
+namespace {
+
+std::string g_dir;
+
+void write(const std::string& target, const std::string& name, const std::vector<uint8_t>& bytes) {
+    std::filesystem::create_directories(g_dir + "/" + target);
+    const std::string path = g_dir + "/" + target + "/" + name;
     FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) return;
+    if (!f) {
+        std::fprintf(stderr, "make_fuzz_seeds: cannot write %s\n", path.c_str());
+        std::exit(1);
+    }
     std::fwrite(bytes.data(), 1, bytes.size(), f);
     std::fclose(f);
 }
 
+struct Out {
+    std::vector<uint8_t> b;
+    template <class T>
+    Out& put(T v) {
+        const auto* p = reinterpret_cast<const uint8_t*>(&v);
+        b.insert(b.end(), p, p + sizeof(T));
+        return *this;
+    }
+    Out& text(const std::string& s) {
+        b.insert(b.end(), s.begin(), s.end());
+        return *this;
+    }
+};
+
+std::vector<float> ring_mesh(int rings) {
+    std::vector<float> mesh;
+    for (int r = 0; r < rings; ++r)
+        for (int s = 0; s < 8; ++s)
+            mesh.insert(mesh.end(), {r / 5.0f, 0.1f * std::cos(s * 0.785f), 0.07f * std::sin(s * 0.785f)});
+    return mesh;
+}
+
+void deform_seeds() {
+    // volume flag, strength, offset, then per matrix value: mode >= 128 and the float itself.
+    const float angles[] = {0.0f, 1.5708f, 2.967f};
+    const char* names[] = {"rest", "bent90", "bent170"};
+    for (int i = 0; i < 3; ++i)
+        for (int vol = 0; vol < 2; ++vol) {
+            Out o;
+            o.put<uint8_t>(vol).put<float>(1.0f).put<float>(0.0f);
+            for (float x : sdfuzz::bent_pose(angles[i])) o.put<uint8_t>(200).put<float>(x);
+            write("fuzz_deform", std::string(names[i]) + (vol ? "_volume" : ""), o.b);
+        }
+}
+
+void bind_seeds() {
+    // V-1, S, K, positions, S*V sweep ids + weights, K*V bone ids + weights.
+    const std::vector<float> mesh = ring_mesh(8);  // 64 points
+    for (int slots = 1; slots <= 2; ++slots) {
+        Out o;
+        o.put<uint8_t>(63).put<uint8_t>(1).put<uint8_t>(static_cast<uint8_t>(slots));
+        for (float x : mesh) o.put<float>(x);
+        for (int v = 0; v < 64; ++v) o.put<int8_t>(0);
+        for (int v = 0; v < 64; ++v) o.put<float>(1.0f);
+        for (int s = 0; s < slots; ++s)
+            for (int v = 0; v < 64; ++v) o.put<int8_t>(static_cast<int8_t>(std::min(2, v / 24 + s)));
+        for (int s = 0; s < slots; ++s)
+            for (int v = 0; v < 64; ++v) o.put<float>(1.0f / static_cast<float>(slots));
+        write("fuzz_bind", "ring_" + std::to_string(slots) + "bones", o.b);
+    }
+}
+
+void fit_seeds() {
+    // V-3, T-1, scale mode (< 200: 0.05), per vertex mode < 220 and two jitters, triangles
+    // int16, keys per link.
+    for (int keys = 1; keys <= 2; ++keys) {
+        const int V = 92, T = 200;
+        Out o;
+        o.put<uint8_t>(V - 3).put<uint8_t>(T - 1).put<uint8_t>(0);
+        for (int v = 0; v < V; ++v) o.put<uint8_t>(0).put<int8_t>(static_cast<int8_t>(v % 7 - 3)).put<int8_t>(0);
+        for (int t = 0; t < T; ++t) {  // neighbours along the tube and around it
+            const int a = t % (V - 24);
+            o.put<int16_t>(static_cast<int16_t>(a)).put<int16_t>(static_cast<int16_t>(a + 1 + (t & 1) * 22))
+                .put<int16_t>(static_cast<int16_t>(a + 23));
+        }
+        o.put<uint8_t>(static_cast<uint8_t>(keys));
+        write("fuzz_fit", "tube_keys" + std::to_string(keys), o.b);
+    }
+}
+
+void rig_array_seeds(const sdfuzz::Arm& arm) {
+    // B-1, parents, rest, heads, tails, K, per key: center, quaternion, half axes, fractions,
+    // bone, joint parent (the arm of fuzz_fixture.h exactly).
+    Out o;
+    o.put<uint8_t>(2);
+    for (int32_t p : arm.parents) o.put<int8_t>(static_cast<int8_t>(p));
+    for (float x : arm.rest) o.put<float>(x);
+    for (float x : arm.heads) o.put<float>(x);
+    for (float x : arm.tails) o.put<float>(x);
+    const int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
+    o.put<uint8_t>(7);
+    for (int k = 0; k < 7; ++k) {
+        o.put<float>(k / 3.0f).put<float>(0.0f).put<float>(0.0f);
+        for (int i = 0; i < 4; ++i) o.put<float>(0.5f);
+        o.put<float>(0.1f).put<float>(0.07f).put<float>(0.5f).put<float>(k == 6 ? 1.0f : 0.5f);
+        o.put<int8_t>(static_cast<int8_t>(bones[k])).put<int8_t>(static_cast<int8_t>(joint_parents[k]));
+    }
+    write("fuzz_rig_arrays", "arm", o.b);
+}
+
+void correction_seeds() {
+    // count, then per correction: sweep, key, angle, 8 values, op; then a key and angle to
+    // evaluate, the bend (int8 / 40 rad).
+    Out o;
+    o.put<uint8_t>(2);
+    const float values[2][8] = {{0.01f, 0.0f, 0.0f, 0.0f, 0.0f, 0.2f, 1.2f, 0.9f}, {0, 0.02f, 0, 0.1f, 0, 0, 1, 1.1f}};
+    const float angle[2] = {1.5708f, 2.5f};
+    for (int c = 0; c < 2; ++c) {
+        o.put<int8_t>(0).put<int8_t>(3).put<float>(angle[c]);
+        for (float v : values[c]) o.put<float>(v);
+        o.put<uint8_t>(0);
+    }
+    o.put<uint8_t>(3).put<float>(2.0f).put<int8_t>(80);
+    write("fuzz_corrections", "elbow_two", o.b);
+}
+
+void anatomy_seeds() {
+    // joints, per joint: 3 x (mode < 200, int8 / 64), bone, kind, effects, params, proxy flag;
+    // feedback mode, restore, bend.
+    for (int kind = 0; kind < 3; ++kind) {
+        Out o;
+        o.put<uint8_t>(1);
+        for (int8_t d : {0, 64, 0}) o.put<uint8_t>(0).put<int8_t>(d);
+        o.put<int8_t>(1).put<int8_t>(static_cast<int8_t>(kind)).put<int8_t>(7).put<uint8_t>(1);
+        o.put<int8_t>(2).put<float>(0.15f).put<uint8_t>(0);
+        o.put<int8_t>(1).put<uint8_t>(1).put<int8_t>(100);
+        write("fuzz_anatomy", "joint_kind" + std::to_string(kind), o.b);
+    }
+}
+
+void dmap_seeds() {
+    // flips, theta cells, t cells, smoothing mode, N-1, per point: mode < 230 and x, y, z
+    // (u8 / 110, int8 / 1000, int8 / 1000), snap.
+    for (int snap = 0; snap < 2; ++snap) {
+        Out o;
+        o.put<uint8_t>(0).put<int16_t>(0).put<int8_t>(0).put<uint8_t>(0).put<uint8_t>(15);
+        for (int i = 0; i < 16; ++i) o.put<uint8_t>(0).put<uint8_t>(static_cast<uint8_t>(12 * i + 6)).put<int8_t>(90).put<int8_t>(-40);
+        o.put<float>(snap ? 1e30f : 0.1f);
+        write("fuzz_dmap", snap ? "points_surface" : "points", o.b);
+    }
+}
+
+void reader_seeds() {
+    Out bvh;
+    bvh.text("HIERARCHY\nROOT Hips\n{\n  OFFSET 1 2 3\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+             "Yrotation\n  JOINT Arm\n  {\n    OFFSET 0 5 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n"
+             "    {\n      OFFSET 0 0 4\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.05\n0 0 0 0 0 0 0 0 0\n"
+             "1 2 3 10 20 30 40 -50 60\n");
+    write("fuzz_bvh", "two_joints.bvh", bvh.b);
+    // First byte: the extension (0 obj, 1 ply, 2 off, 3 xyz).
+    write("fuzz_mesh_file", "pyramid.obj", Out().put<uint8_t>(0).text(
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\nf 1 3 2\nf 1 4 3\n").b);
+    write("fuzz_mesh_file", "cloud.ply", Out().put<uint8_t>(1).text(
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").b);
+    write("fuzz_mesh_file", "quad.off", Out().put<uint8_t>(2).text("OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n").b);
+    write("fuzz_mesh_file", "points.xyz", Out().put<uint8_t>(3).text("# points\n1 2 3\n\n4 5 6 0.1 0.2 0.3\n").b);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
-    if (argc < 2) return 2;
-    const std::string dir = argv[1];
+    if (argc < 2) {
+        std::fprintf(stderr, "usage: make_fuzz_seeds <corpus dir>\n");
+        return 2;
+    }
+    g_dir = argv[1];
     sdfuzz::Arm arm;
-    int64_t n = 0;
-    sd_rig_serialize(arm.rig, nullptr, 0, &n);
-    std::vector<uint8_t> rig(static_cast<size_t>(n));
-    sd_rig_serialize(arm.rig, rig.data(), n, &n);
-    write(dir + "/fuzz_rig_blob/arm.bin", rig);
-    sd_binding* b = arm.bind();
-    sd_binding_serialize(b, nullptr, 0, &n);
-    std::vector<uint8_t> bind(static_cast<size_t>(n));
-    sd_binding_serialize(b, bind.data(), n, &n);
-    write(dir + "/fuzz_binding_blob/arm.bin", bind);
-    sd_binding_destroy(b);
+    write("fuzz_rig_blob", "arm.bin", arm.rig_blob());
+    write("fuzz_binding_blob", "arm.bin", arm.binding_blob());
+    {  // a rig carrying corrections (blob format with the correction section)
+        sd_rig* rig = nullptr;
+        const std::vector<uint8_t> blob = arm.rig_blob();
+        sd_rig_deserialize(blob.data(), static_cast<int64_t>(blob.size()), &rig);
+        const float values[8] = {0.01f, 0, 0, 0, 0, 0.2f, 1.2f, 0.9f};
+        if (sd_rig_set_key_correction(rig, 0, 3, 1.5708f, values, 0, nullptr) != SD_OK) return 1;
+        int64_t n = 0;
+        sd_rig_serialize(rig, nullptr, 0, &n);
+        std::vector<uint8_t> b(static_cast<size_t>(n));
+        sd_rig_serialize(rig, b.data(), n, &n);
+        write("fuzz_rig_blob", "arm_corrected.bin", b);
+        sd_rig_destroy(rig);
+    }
+    deform_seeds();
+    bind_seeds();
+    fit_seeds();
+    rig_array_seeds(arm);
+    correction_seeds();
+    anatomy_seeds();
+    dmap_seeds();
+    reader_seeds();
     return 0;
 }

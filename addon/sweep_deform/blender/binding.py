@@ -19,7 +19,7 @@ import uuid
 import bpy
 import numpy as np
 
-from ..core import arrays, checks, native
+from ..core import arrays, checks, fit_report, native
 from . import anatomy, deformer_cache, mesh_data, modifier, persistence
 
 #: Influences per vertex read from the vertex groups for the fitting.
@@ -28,6 +28,29 @@ SKIN_SLOTS = 8
 
 class BindError(RuntimeError):
     pass
+
+
+def bind_errors():
+    """Every error binding can raise on bad input or a bad installation: the add-on's own
+    (BindError), the native layer's (NativeError, NativeLibraryError), the numpy and
+    ctypes layers' (ValueError, LinAlgError, ArithmeticError, KeyError, IndexError) and a mesh
+    too big for memory (MemoryError).
+    The operators turn each into a report in the interface (one path, ui/bind_operators.py)."""
+    return (BindError, native.NativeError, native.NativeLibraryError, ValueError, ArithmeticError,
+            MemoryError, KeyError, IndexError, np.linalg.LinAlgError)
+
+
+def error_message(e):
+    """The report for a bind error: BindError's text as is, others with the kind of failure."""
+    if isinstance(e, BindError):
+        return str(e)
+    if isinstance(e, native.NativeLibraryError):
+        return f"the native library cannot be used: {e}"
+    if isinstance(e, native.NativeError):
+        return f"the core refused the character: {e}"
+    if isinstance(e, MemoryError):
+        return "not enough memory to bind this mesh"
+    return f"{type(e).__name__}: {e}"
 
 
 class BindInputs:
@@ -153,16 +176,34 @@ def read_inputs(obj, arm):
 # ---- stages 2 and 3: native (any thread; no bpy) --------------------------------------------
 
 
+#: What the core's automatic chain finding says when a skeleton is not a humanoid.
+_CHAINS_PREFIX = "automatic chains: "
+_CHAINS_SUFFIX = "; give the chains explicitly"
+
+
 def fit_native(inp):
-    """The product's rig: the core's automatic fitting (sd_fit_rig).
+    """The product's rig: the core's automatic fitting (sd_fit_rig), for humanoids only: any
+    other skeleton (a quadruped, a snake or chain) is refused by a BindError naming what was
+    not found, before anything in the file changes.
     Returns (rig, sweep_ids, sweep_weights, bone_ids, bone_weights, report)."""
-    result = native.fit_rig(inp.positions, inp.triangles, inp.parents, inp.rest, inp.heads, inp.tails,
-                            bone_names=inp.bone_names, skin_bones=inp.skin_bones,
-                            skin_weights=inp.skin_weights, keys_per_link=2)
     try:
+        result = native.fit_rig(inp.positions, inp.triangles, inp.parents, inp.rest, inp.heads, inp.tails,
+                                bone_names=inp.bone_names, skin_bones=inp.skin_bones,
+                                skin_weights=inp.skin_weights, keys_per_link=2)
+    except native.NativeError as e:
+        text = str(e)
+        if _CHAINS_PREFIX in text:  # the interface has no way to give chains: say what is supported
+            why = text[text.index(_CHAINS_PREFIX) + len(_CHAINS_PREFIX):].replace(_CHAINS_SUFFIX, "")
+            raise BindError(fit_report.humanoid_refusal(f"no humanoid found: {why}")) from None
+        raise
+    try:
+        report = result.report()
+        problem = fit_report.humanoid_problem(report, inp.heads, inp.tails, inp.bone_names)
+        if problem:
+            raise BindError(fit_report.humanoid_refusal(problem))
         rig = result.rig()
         sid, sw, bid, bw = result.weights()
-        return rig, sid, sw, bid, bw, result.report()
+        return rig, sid, sw, bid, bw, report
     finally:
         result.close()
 
@@ -209,11 +250,16 @@ def store(obj, arm, inp, out):
                       out.rig.sweep_count, out.report)
     anatomy.fill_joints(obj)  # the elbows and knees of the anatomical effects, from the report
     s.armature = arm
+    s.bound_armature = arm.name
+    s.bound_armature_object = arm
+    s.bound_armature_data = arm.data.name if arm.data is not None else ""
     s.bind_id = uuid.uuid4().hex
     s.state = 'BOUND'
     s.message = ""
     # The Armature modifier this one replaces: the one remembered by an earlier binding, else
-    # the first that uses this armature. Its deformation is switched off, its state remembered.
+    # the first that uses this armature. It is only switched off, never changed otherwise: it
+    # keeps its object, so the artist's set-up survives, and a file saved with the binding
+    # deforms by it where the extension is missing (see prepare_for_save).
     replaced = obj.modifiers.get(s.armature_modifier) if s.armature_modifier else None
     if replaced is None or replaced.type != 'ARMATURE':
         replaced = next((md for md in modifier.armature_modifiers(obj) if md.object == arm), None)
@@ -227,10 +273,8 @@ def store(obj, arm, inp, out):
     if replaced is not None:
         replaced.show_viewport = False
         replaced.show_render = False
-        # Without its object the switched-off modifier no longer ties the mesh to the pose in
-        # the depsgraph, so a pose change evaluates the mesh once (after the offsets are
-        # written) instead of twice (measured: 0.2 ms a frame at 75K vertices).
-        replaced.object = None
+        if replaced.object is None:  # cleared by a binding made before version 0.2
+            replaced.object = s.armature_modifier_object or arm
     md = modifier.find(obj)
     if md is None:
         md = modifier.ensure(obj, before=replaced)
@@ -247,6 +291,73 @@ def bind_object(obj, arm):
     return store(obj, arm, inp, out)
 
 
+def replaced_armature_modifier(obj):
+    """The Armature modifier the binding switched off, or None."""
+    s = obj.sweep_deform
+    if not s.armature_modifier:
+        return None
+    md = obj.modifiers.get(s.armature_modifier)
+    return md if md is not None and md.type == 'ARMATURE' else None
+
+
+def _portable(obj):
+    """(Sweep Deform modifier, replaced Armature modifier) of a local bound mesh, or None."""
+    if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or linked_reason(obj):
+        return None
+    md_arm = replaced_armature_modifier(obj)
+    md_sweep = modifier.find(obj)
+    if md_arm is None or md_sweep is None:
+        return None
+    return md_sweep, md_arm
+
+
+def prepare_for_save(obj):
+    """For a file saved while bound (save_pre): the replaced Armature modifier as the artist
+    had it (on, its object set) and the Sweep Deform modifier off (its toggles remembered in
+    the object), so Blender *without* the extension (a render-farm node, a colleague's
+    machine) deforms the character by the Armature modifier and never twice. The offsets stay
+    in the mesh, so with the extension the file opens exactly as saved. Returns True if the
+    object was prepared; restore_after_save() undoes it (save_post, load_post)."""
+    found = _portable(obj)
+    if found is None:
+        return False
+    md_sweep, md_arm = found
+    s = obj.sweep_deform
+    if not s.saved_for_blender_without_extension:
+        s.sweep_modifier_viewport = md_sweep.show_viewport
+        s.sweep_modifier_render = md_sweep.show_render
+    md_sweep.show_viewport = False
+    md_sweep.show_render = False
+    md_arm.show_viewport = s.armature_modifier_viewport
+    md_arm.show_render = s.armature_modifier_render
+    if md_arm.object is None:
+        md_arm.object = s.armature_modifier_object or s.armature
+    s.saved_for_blender_without_extension = True
+    return True
+
+
+def restore_after_save(obj):
+    """The extension is running (after a save, on load): the Sweep Deform modifier's toggles
+    back as they were, the replaced Armature modifier off again (its object kept; one cleared
+    by a version before issue 15 gets it back). Returns True if anything changed."""
+    found = _portable(obj)
+    if found is None:
+        return False
+    md_sweep, md_arm = found
+    s = obj.sweep_deform
+    changed = md_arm.show_viewport or md_arm.show_render or md_arm.object is None
+    if s.saved_for_blender_without_extension:
+        md_sweep.show_viewport = s.sweep_modifier_viewport
+        md_sweep.show_render = s.sweep_modifier_render
+        s.saved_for_blender_without_extension = False
+        changed = True
+    md_arm.show_viewport = False
+    md_arm.show_render = False
+    if md_arm.object is None:
+        md_arm.object = s.armature_modifier_object or s.armature
+    return changed
+
+
 def unbind(obj, restore_armature_modifier=True):
     """Removes the binding and the offsets; restores the Armature modifier it replaced.
     The Sweep Deform modifier itself stays (unbound, it does nothing)."""
@@ -260,6 +371,7 @@ def unbind(obj, restore_armature_modifier=True):
                 md.object = s.armature_modifier_object or s.armature
     s.armature_modifier = ""
     s.armature_modifier_object = None
+    s.bound_armature_object = None
     persistence.clear(obj)
     s.message = ""
     deformer_cache.forget(obj)

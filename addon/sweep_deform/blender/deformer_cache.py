@@ -37,6 +37,14 @@ class Entry:
         self.labels = []
         self.frames = 0
         self.rest_checked = False
+        self.armature_seen = None
+        # The per-frame output check (core/output_check.py): made on first use; the warning of
+        # the last frame that needed the fallback (empty after a good frame).
+        self.output_check = None
+        self.output_check_error = ""
+        self.warning = ""
+        self.fallback = None
+        self.fallback_frames = 0
         self.unusable = False
         self.last_pose = None
         self.rig = None
@@ -111,15 +119,32 @@ class Entry:
 
     def rest_pose_matches(self, arm):
         """Whether the armature's rest pose is still the one the binding was made with."""
+        return self.rest_pose_problem(arm) is None
+
+    def rest_pose_problem(self, arm):
+        """None if the armature's bones and rest pose are the ones the binding was made with,
+        else what changed, precisely: the bones that are gone (deleted or renamed), or the
+        bones whose rest matrix moved (the one that moved most first)."""
         bones = arm.data.bones
+        names = [b.name for b in bones]
+        present = set(names)
+        missing = [n for n in self.bone_names if n not in present]
+        if missing:
+            more = f" and {len(missing) - 4} more" if len(missing) > 4 else ""
+            shown = ", ".join(f"'{n}'" for n in missing[:4]) + more
+            return (f"the bone{'s' if len(missing) > 1 else ''} {shown} of '{arm.name}' "
+                    f"{'were' if len(missing) > 1 else 'was'} deleted or renamed after binding")
         rest = np.empty(16 * len(bones), np.float32)
         bones.foreach_get('matrix_local', rest)
-        try:
-            order = arrays.pose_order(self.bone_names, [b.name for b in bones])
-        except KeyError:
-            return False
-        rest = arrays.gather_pose(rest, order)
-        return rest.size == self.rest_pose.size and np.allclose(rest, self.rest_pose, rtol=0.0, atol=1e-5)
+        rest = arrays.gather_pose(rest, arrays.pose_order(self.bone_names, names))
+        if rest.size != self.rest_pose.size:
+            return f"the bones of '{arm.name}' changed after binding"
+        change = np.abs(rest.reshape(-1, 16) - self.rest_pose.reshape(-1, 16)).max(axis=1)
+        moved = [self.bone_names[i] for i in np.argsort(-change) if change[i] > 1e-5]
+        if not moved:
+            return None
+        shown = ", ".join(f"'{n}'" for n in moved[:3]) + (f" and {len(moved) - 3} more" if len(moved) > 3 else "")
+        return f"the rest pose of '{arm.name}' changed after binding (bone{'s' if len(moved) > 1 else ''} {shown})"
 
     def packed_buffer(self, obj):
         """(5V,3) float32, a carrier's blocks with the local linear maps (modifier.FRAME_BLOCKS):

@@ -13,8 +13,8 @@ last good deformation and the panel says why.
 
 import numpy as np
 
-from ..core import arrays, checks, native
-from . import anatomy, bind_state, corrections, deformer_cache, modifier, persistence
+from ..core import arrays, checks, native, output_check
+from . import anatomy, bind_state, binding, corrections, deformer_cache, modifier, persistence
 
 #: What the user is told after a refused frame, and what happens.
 KEPT = "the mesh keeps its last good deformation until this is fixed"
@@ -25,16 +25,103 @@ KEPT = "the mesh keeps its last good deformation until this is fixed"
 core_calls = 0
 
 
-def linked_mesh_message(obj):
+def linked_mesh_message(obj, md=None):
     """Why a linked object is not deformed (None if the object is local or a library
     override). Its modifier, and the carrier it points at, are library data, which Blender
-    does not let an add-on change, so it shows the shape saved in that file."""
+    does not let an add-on change. A library saved by this version has its Armature modifier
+    on and Sweep Deform off (for Blender without the extension, binding.prepare_for_save), so
+    the character follows the pose by linear blend skinning here; one saved before shows the
+    shape saved in it."""
     lib = obj.library
     if lib is None:
         return None
+    md_arm = binding.replaced_armature_modifier(obj)
+    by_armature = (md is None or not md.show_viewport) and md_arm is not None and md_arm.show_viewport \
+        and md_arm.object is not None
+    shown = ("so its Armature modifier deforms it here, as in Blender without the extension" if by_armature
+             else "so it shows the shape saved in that file")
     return (f"The object '{obj.name}' is linked from '{lib.filepath}': Sweep Deform cannot change linked data, "
-            "so it shows the shape saved in that file. To animate it here, make a library override of it "
+            f"{shown}. To animate it with Sweep Deform here, make a library override of it "
             "(Object > Library Override > Make), or make it local")
+
+
+def armature_problem(obj):
+    """None while the binding's armature is there, else what happened to it, naming it: deleted
+    (the pointer went empty, or the object is in no scene any more), or replaced by another
+    armature object."""
+    s = obj.sweep_deform
+    arm = s.armature
+    if arm is None:
+        name = f" '{s.bound_armature}'" if s.bound_armature else ""
+        return f"The armature{name} this mesh was bound to was deleted (or cleared from the Sweep Deform settings)"
+    if not arm.users_scene:  # deleted by the operator: kept alive only by references like ours
+        return f"The armature '{arm.name}' this mesh was bound to was deleted (it is in no scene any more)"
+    original = s.bound_armature_object
+    if original is not None and original != arm:
+        return f"The armature was replaced ('{original.name}' when bound, '{arm.name}' now)"
+    return None
+
+
+def _rest_message(obj, arm, problem):
+    """The panel's message for changed bones or rest pose; it also says when the armature's
+    data is another one than at binding (a renamed data block with the same bones is fine)."""
+    data = obj.sweep_deform.bound_armature_data
+    if data and arm.data is not None and arm.data.name != data:
+        problem = (f"the armature data of '{arm.name}' was replaced ('{data}' when bound, '{arm.data.name}' now): "
+                   f"{problem}")
+    return f"{problem[0].upper()}{problem[1:]}: bind again"
+
+
+def _output_check(e, obj, arm):
+    """The entry's OutputCheck, made on first use from the vertex groups (None, with the
+    reason in e.output_check_error, if it cannot be made)."""
+    if e.output_check is None and not e.output_check_error:
+        try:
+            ids, weights = binding.skin_weights(obj, arm, e.bone_names)
+            lengths = np.array([arm.data.bones[n].length for n in e.bone_names], np.float64)
+            e.output_check = output_check.OutputCheck(e.rest, e.rest_pose, lengths, ids, weights)
+        except (KeyError, ValueError, IndexError, MemoryError) as err:
+            e.output_check_error = f"{type(err).__name__}: {err}"
+            print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
+    return e.output_check
+
+
+def _checked_output(e, obj, arm, deformed, pose, depsgraph):
+    """The frame's deformed positions, or, when a vertex ends farther from its posed bones than
+    output_check.RATIO_LIMIT times its rest distance (a pose the sweeps cannot follow), the
+    linear blend skinning of the same pose; the panel then names the frame and the bone."""
+    check = _output_check(e, obj, arm)
+    if check is None:
+        return deformed
+    ratio, vertex, bone = check.worst(deformed, pose)
+    if ratio <= output_check.RATIO_LIMIT:
+        e.warning = ""
+        return deformed
+    frame = depsgraph.scene.frame_current if depsgraph is not None and depsgraph.scene else None
+    name = e.bone_names[bone] if 0 <= bone < len(e.bone_names) else f"bone {bone}"
+    shown = "inf" if not np.isfinite(ratio) else f"{ratio:.1f}"
+    message = (f"Frame {frame}: pose beyond what the sweeps can follow (vertex {vertex} is {shown}× its rest "
+               f"distance from '{name}', limit {output_check.RATIO_LIMIT:g}×): shown with linear blend skinning")
+    if message != e.warning:
+        print(f"Sweep Deform: '{obj.name}': {message}")
+    e.warning = message
+    e.fallback_frames += 1
+    if e.fallback is None:
+        e.fallback = np.empty_like(e.rest)
+    return check.linear_blend(pose, e.fallback)
+
+
+def _bad_channels(arm_eval):
+    """" (bone 'x': its rotation_quaternion is NaN)" for the pose channels that are not finite
+    (Blender turns a NaN quaternion into a zero matrix, which the core can only call
+    degenerate), or ""."""
+    found = []
+    for pb in arm_eval.pose.bones:
+        for channel in ("location", "rotation_quaternion", "rotation_euler", "rotation_axis_angle", "scale"):
+            values = tuple(getattr(pb, channel))
+            if not all(np.isfinite(values)):
+                found.append(f"bone '{pb.name}': its {channel} is {'NaN' if any(np.isnan(values)) else 'infinite'}")
+    return f" ({'; '.join(found[:3])})" if found else ""
 
 
 def evaluate(obj, depsgraph, render=False):
@@ -47,14 +134,18 @@ def evaluate(obj, depsgraph, render=False):
     if md is None:
         bind_state.modifier_gone(obj)
         return False
+    linked = linked_mesh_message(obj, md)
+    if linked:
+        deformer_cache.entry(obj).refuse(obj, linked)
+        return False
     if not modifier.active(md, render):
         return False
     arm = s.armature
-    if arm is None or arm.mode == 'EDIT':
+    gone = armature_problem(obj)
+    if gone:
+        bind_state.set_rebind(obj, f"{gone}: bind again")
         return False
-    linked = linked_mesh_message(obj)
-    if linked:
-        deformer_cache.entry(obj).refuse(obj, linked)
+    if arm.mode == 'EDIT':
         return False
     if not persistence.counts_match(obj):
         bind_state.set_rebind(obj, "The mesh's topology changed after binding: bind again")
@@ -71,17 +162,20 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         if e.unusable:
             bind_state.set_rebind(obj, f"The stored binding cannot be used ({e.load_error}): bind again")
         return False
-    if not e.rest_checked:
+    seen = (len(arm.data.bones), arm.data.name)  # a bone removed, other data: check again
+    if not e.rest_checked or e.armature_seen != seen:
         e.rest_checked = True
-        if not e.rest_pose_matches(arm):
-            bind_state.set_rebind(obj, f"The rest pose of '{arm.name}' changed after binding: bind again")
+        e.armature_seen = seen
+        problem = e.rest_pose_problem(arm)
+        if problem:
+            bind_state.set_rebind(obj, _rest_message(obj, arm, problem))
             return False
     arm_eval = arm.evaluated_get(depsgraph)
     obj_eval = obj.evaluated_get(depsgraph)
     try:
         pose = e.armature_pose(arm_eval)
     except KeyError as err:
-        bind_state.set_rebind(obj, f"{err.args[0]}: bind again")
+        bind_state.set_rebind(obj, _rest_message(obj, arm, e.rest_pose_problem(arm) or err.args[0]))
         return False
     problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
     if problem:
@@ -141,9 +235,11 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
-        e.refuse(obj, f"Unusable pose: {checks.name_bones(str(err), e.bone_names)}: {KEPT}")
+        why = checks.name_bones(str(err), e.bone_names) + _bad_channels(arm_eval)
+        e.refuse(obj, f"Unusable pose: {why}: {KEPT}")
         e.refused_key = key
         return False
+    deformed = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets

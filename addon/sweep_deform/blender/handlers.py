@@ -17,6 +17,12 @@ does not depend on the armature, so a pose change evaluates the mesh once, after
 
 ``load_post`` / ``undo_post`` / ``redo_post`` drop the native objects (re-created lazily from
 the blobs in the file) and check the meshes' topology against the binding's fingerprint.
+
+A file opened without the extension (a render-farm node, a colleague's machine) deforms by
+the Armature modifier: ``save_pre`` switches every bound character's replaced Armature
+modifier back on (it keeps its object) and its Sweep Deform modifier off, so the file on disk
+is an ordinary Armature set-up; ``save_post`` (and ``save_post_fail``) and ``load_post``
+restore both. See docs/addon.md, "Render farms".
 """
 
 import traceback
@@ -24,7 +30,7 @@ import traceback
 import bpy
 from bpy.app.handlers import persistent
 
-from . import bind_state, bound_objects, deformer_cache, frame, modifier, redraw
+from . import bind_state, binding, bound_objects, deformer_cache, frame, modifier, redraw
 
 #: Object name → mode seen last (a full topology check runs when an object leaves Edit Mode).
 _modes = {}
@@ -59,6 +65,8 @@ def evaluate_scene(scene, depsgraph, render=False):
     """Updates every bound character of the scene. Returns how many were rewritten."""
     written = 0
     for obj in bound_objects.in_scene(scene):
+        if obj.sweep_deform.saved_for_blender_without_extension:
+            binding.restore_after_save(obj)  # appended, or made local: no load_post came
         mode = obj.mode
         if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
             bind_state.check_topology(obj)
@@ -100,12 +108,39 @@ def on_frame_change_post(scene, depsgraph=None):
     evaluate_scene(scene, depsgraph, render=render)
 
 
+def _bound_meshes():
+    return [o for o in bpy.data.objects if o.type == 'MESH' and o.sweep_deform.state != 'UNBOUND']
+
+
+def _each_bound_mesh(action, failure):
+    """`action(obj)` on every bound mesh; an error is printed with `failure`, never raised
+    (a save must not fail for it)."""
+    for obj in _bound_meshes():
+        try:
+            action(obj)
+        except (ReferenceError, AttributeError, RuntimeError) as e:
+            print(f"Sweep Deform: '{obj.name}': {failure}: {e}")
+
+
+@persistent
+def on_save_pre(*_args):
+    """The file on disk deforms by the Armature modifier where the extension is missing."""
+    _each_bound_mesh(binding.prepare_for_save, "not prepared for Blender without the extension")
+
+
+@persistent
+def on_save_post(*_args):
+    _each_bound_mesh(binding.restore_after_save, "the modifiers were not restored after saving")
+
+
 @persistent
 def on_load_post(*_args):
     deformer_cache.clear()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
         modifier.node_group()  # bring an older layout up to date
+    for obj in _bound_meshes():
+        binding.restore_after_save(obj)  # saved for Blender without the extension
     for scene in bpy.data.scenes:
         for obj in bound_objects.in_scene(scene):
             # Files bound by layout version 1 kept the offsets in the mesh: they go (once, at
@@ -124,19 +159,28 @@ _HANDLERS = (
     (bpy.app.handlers.depsgraph_update_post, on_depsgraph_update_post),
     (bpy.app.handlers.frame_change_post, on_frame_change_post),
     (bpy.app.handlers.load_post, on_load_post),
+    (bpy.app.handlers.save_pre, on_save_pre),
+    (bpy.app.handlers.save_post, on_save_post),
     (bpy.app.handlers.undo_post, on_undo_redo_post),
     (bpy.app.handlers.redo_post, on_undo_redo_post),
 )
 
 
+def _all_handlers():
+    found = list(_HANDLERS)
+    if hasattr(bpy.app.handlers, "save_post_fail"):  # Blender 4.2+: a failed save restores too
+        found.append((bpy.app.handlers.save_post_fail, on_save_post))
+    return found
+
+
 def register():
     unregister()
-    for handlers, fn in _HANDLERS:
+    for handlers, fn in _all_handlers():
         handlers.append(fn)
 
 
 def unregister():
-    for handlers, fn in _HANDLERS:
+    for handlers, fn in _all_handlers():
         # Match by name too: a reloaded module brings new function objects.
         for h in [h for h in handlers if h is fn or getattr(h, "__qualname__", None) == fn.__qualname__
                   and getattr(h, "__module__", None) == fn.__module__]:

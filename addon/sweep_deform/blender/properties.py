@@ -151,11 +151,20 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
     topology: StringProperty(description="SHA-1 of the mesh's connectivity at binding")
     rest_positions: StringProperty(description="SHA-1 of the rest positions at binding")
     sweep_count: IntProperty()
+    # What the binding was made with, for the messages when it is gone (issue 15).
+    bound_armature: StringProperty(description="Name of the armature object at binding")
+    bound_armature_data: StringProperty(description="Name of the armature's data at binding")
+    bound_armature_object: PointerProperty(type=bpy.types.Object, description="The armature at binding")
     # The Armature modifier this one replaces, and how it was before we disabled it.
     armature_modifier: StringProperty()
     armature_modifier_viewport: BoolProperty(default=True)
     armature_modifier_render: BoolProperty(default=True)
     armature_modifier_object: PointerProperty(type=bpy.types.Object)
+    # A file saved while bound has the Armature modifier on and Sweep Deform off, for Blender
+    # without the extension (binding.prepare_for_save); the extension restores these on load.
+    saved_for_blender_without_extension: BoolProperty(default=False)
+    sweep_modifier_viewport: BoolProperty(default=True)
+    sweep_modifier_render: BoolProperty(default=True)
 
 
 classes = (SweepDeformCorrection, SweepDeformJoint, SweepDeformSettings)

@@ -131,7 +131,8 @@ class DisplacementMap:
         Returns (binding blob bytes for native.Binding.deserialize, influences snapped)."""
         pts = np.ascontiguousarray(points, np.float32).reshape(-1, 3)
         snapped, binding = c_int32(0), BindingP()
-        _call("sd_dmap_bind", self._handle, pts.shape[0], pts, float(snap), ctypes.byref(snapped), ctypes.byref(binding))
+        _call("sd_dmap_bind", self._handle, pts.shape[0], pts, float(snap), ctypes.byref(snapped),
+              ctypes.byref(binding))
         try:  # the blob: size query, then fill
             size = c_int64(0)
             _call("sd_dmap_binding_serialize", binding, None, 0, ctypes.byref(size))

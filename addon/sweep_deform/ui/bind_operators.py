@@ -10,6 +10,7 @@ at once.
 """
 
 import threading
+import traceback
 
 import bpy
 from bpy.props import StringProperty
@@ -54,6 +55,19 @@ class _Binder(ModalProgress):
         value, text = _STAGES[stage]
         self._show_progress(context, value, f"Sweep Deform: {text}… (Esc to cancel)")
 
+    def _fail(self, context, e):
+        """The one error path of both binds (scripted and interactive): every error becomes a
+        report in the interface, nothing in the file has changed. An error nobody foresaw is
+        reported too, with its traceback in the console for a bug report."""
+        self._end(context)
+        if not isinstance(e, binding.bind_errors()):
+            traceback.print_exception(type(e), e, e.__traceback__)
+            self.report({'ERROR'}, f"Sweep Deform: unexpected error while binding ({type(e).__name__}: {e}); "
+                                   "nothing was changed, details in the system console")
+        else:
+            self.report({'ERROR'}, f"Sweep Deform: {binding.error_message(e)}")
+        return {'CANCELLED'}
+
     def _prepare(self, context):
         ok, why = native.available()
         if not ok:
@@ -63,7 +77,7 @@ class _Binder(ModalProgress):
         try:
             arm = binding.find_armature(obj, self.armature)
         except binding.BindError as e:
-            self.report({'ERROR'}, str(e))
+            self.report({'ERROR'}, f"Sweep Deform: {e}")
             return None
         if arm is None:
             self.report({'ERROR'}, f"'{obj.name}' has no Armature modifier or armature parent: "
@@ -93,12 +107,11 @@ class _Binder(ModalProgress):
             self._progress(context, "read")
             inp = binding.read_inputs(obj, arm)
             out = binding.fit_and_bind(inp, stage=lambda name: self._progress(context, name))
-            return self._finish(context, obj, arm, inp, out)
-        except (binding.BindError, native.NativeError, native.NativeLibraryError, ValueError) as e:
-            self.report({'ERROR'}, f"Sweep Deform: {e}")
-            return {'CANCELLED'}
-        finally:
-            self._end(context)
+            result = self._finish(context, obj, arm, inp, out)
+        except Exception as e:  # noqa: BLE001 -- one error path, see _fail
+            return self._fail(context, e)
+        self._end(context)
+        return result
 
     # -- interface: modal, native stages in a worker thread --------------------------------
 
@@ -111,10 +124,8 @@ class _Binder(ModalProgress):
         self._progress(context, "read")
         try:
             self._inp = binding.read_inputs(*prepared)
-        except binding.BindError as e:
-            self._end(context)
-            self.report({'ERROR'}, f"Sweep Deform: {e}")
-            return {'CANCELLED'}
+        except Exception as e:  # noqa: BLE001 -- one error path, see _fail
+            return self._fail(context, e)
         self._result, self._error, self._stage = None, None, "fit"
 
         def work(inp=self._inp):
@@ -139,19 +150,17 @@ class _Binder(ModalProgress):
         if self._thread.is_alive():
             self._progress(context, self._stage)
             return {'RUNNING_MODAL'}
-        self._end(context)
         if self._error is not None:
-            self.report({'ERROR'}, f"Sweep Deform: {self._error}")
-            return {'CANCELLED'}
+            return self._fail(context, self._error)
         obj, arm = bpy.data.objects.get(self._obj_name), bpy.data.objects.get(self._arm_name)
         if obj is None or arm is None:
-            self.report({'ERROR'}, "Sweep Deform: the object or armature went away while binding")
-            return {'CANCELLED'}
+            return self._fail(context, binding.BindError("the object or armature went away while binding"))
         try:
-            return self._finish(context, obj, arm, self._inp, self._result)
-        except binding.BindError as e:
-            self.report({'ERROR'}, f"Sweep Deform: {e}")
-            return {'CANCELLED'}
+            result = self._finish(context, obj, arm, self._inp, self._result)
+        except Exception as e:  # noqa: BLE001 -- one error path, see _fail
+            return self._fail(context, e)
+        self._end(context)
+        return result
 
 
 class OBJECT_OT_sweep_deform_add(_Binder, bpy.types.Operator):

@@ -12,6 +12,16 @@ from ..core import arrays, key_edit, native
 from . import bind_operators, key_operators
 
 
+def _alert_box(layout, text, title=None):
+    """A red box with `text` wrapped, under an optional `title` with an error icon."""
+    box = layout.box()
+    box.alert = True
+    if title:
+        box.label(text=title, icon='ERROR')
+    for line in _wrap(text):
+        box.label(text=line)
+
+
 def _relevant(obj):
     return obj is not None and obj.type == 'MESH' and (
         modifier.find(obj) is not None or obj.sweep_deform.state != 'UNBOUND')
@@ -78,17 +88,12 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
             layout.label(text=f"'{s.armature_modifier}' off while bound", icon='MOD_ARMATURE')
         e = deformer_cache.peek(obj)
         if e is not None and e.error:
-            box = layout.box()
-            box.alert = True
-            for line in _wrap(e.error):
-                box.label(text=line)
+            _alert_box(layout, e.error)
+        if e is not None and e.warning:
+            _alert_box(layout, e.warning, "Extreme pose")
         problem = vertex_count_problem(context, obj)
         if problem:
-            box = layout.box()
-            box.alert = True
-            box.label(text="Vertex count changed before Sweep Deform", icon='ERROR')
-            for line in _wrap(problem):
-                box.label(text=line)
+            _alert_box(layout, problem, "Vertex count changed before Sweep Deform")
 
         row = layout.row(align=True)
         row.operator(bind_operators.OBJECT_OT_sweep_deform_bind.bl_idname,
@@ -282,11 +287,7 @@ def draw_key_editing(layout, context, obj, compact=False):
     else:
         col.label(text="No key ellipse selected: click one in the viewport", icon='INFO')
     if e is not None and e.correction_error:
-        box = layout.box()
-        box.alert = True
-        box.label(text="Corrections refused by the core:", icon='ERROR')
-        for line in _wrap(e.correction_error):
-            box.label(text=line)
+        _alert_box(layout, e.correction_error, "Corrections refused by the core:")
 
     layout.label(text=f"Corrections ({len(s.corrections)})")
     row = layout.row()

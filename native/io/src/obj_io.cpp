@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <utility>
 
 namespace sd::io {
 namespace {
@@ -23,6 +24,218 @@ std::string extension(const std::string& path) {
   return e;
 }
 
+/// The element counts a PLY or OFF header declares, checked against kMaxMeshVertices /
+/// kMaxMeshFaces and the file's size before OpenMesh reserves memory for them (a header
+/// claiming 4e9 vertices would otherwise have it try to allocate ~100 GB). Returns the
+/// declared (vertex, face) counts (-1 when the header has none).
+std::pair<long long, long long> check_header_counts(const std::string& path, const std::string& ext) {
+  const auto bytes = static_cast<unsigned long long>(std::filesystem::file_size(path));
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open file");
+  long long vertices = -1, faces = -1;
+  const auto number = [&](const std::string& word, const std::string& what) -> long long {
+    // Digits only: a sign, an exponent or more than 18 digits is no count.
+    if (word.empty() || word.size() > 18 ||
+        !std::all_of(word.begin(), word.end(), [](unsigned char c) { return std::isdigit(c); }))
+      throw std::runtime_error(path + ": the header's " + what + " count '" + word.substr(0, 24) + "' is not a count");
+    return std::stoll(word);
+  };
+  std::string line;
+  if (ext == ".ply") {
+    // The whole header is checked here: OpenMesh 9's PLY reader loops forever on a header
+    // without "end_header" or with a property type it does not know (found by fuzz_mesh_file).
+    static const std::vector<std::string> kTypes = {"char",  "uchar",  "short",   "ushort", "int",   "uint",
+                                                    "float", "double", "int8",    "uint8",  "int16", "uint16",
+                                                    "int32", "uint32", "float32", "float64"};
+    const auto is_type = [&](const std::string& t) {
+      return std::find(kTypes.begin(), kTypes.end(), t) != kTypes.end();
+    };
+    const auto bad = [&](int n, const std::string& why) {
+      throw std::runtime_error(path + ": PLY header line " + std::to_string(n) + ": " + why);
+    };
+    int lines = 0;
+    bool ended = false, in_element = false;
+    while (!ended && std::getline(in, line)) {
+      if (++lines > 10000) bad(lines, "no end_header in the first 10000 lines");
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      if (line.find('\0') != std::string::npos) bad(lines, "a NUL byte in the header");
+      std::istringstream ss(line);
+      std::string key;
+      ss >> key;
+      if (key == "format") {  // OpenMesh's header check crashes on a damaged one (fuzz_mesh_file)
+        std::string kind, version, more;
+        ss >> kind >> version;
+        if ((kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") || version != "1.0" ||
+            (ss >> more))
+          bad(lines, "unknown format '" + line.substr(0, 60) + "'");
+        continue;
+      }
+      if (lines == 1) {
+        if (key != "ply") bad(1, "the file does not start with 'ply'");
+        continue;
+      }
+      if (key == "end_header") {
+        ended = true;
+      } else if (key == "property" && !in_element) {  // OpenMesh crashes on it (fuzz_mesh_file)
+        bad(lines, "a property before any element");
+      } else if (key == "element") {
+        in_element = true;
+        std::string kind, count;
+        ss >> kind >> count;
+        if (kind == "vertex")
+          vertices = number(count, "vertex");
+        else if (kind == "face")
+          faces = number(count, "face");
+        else
+          number(count, kind.substr(0, 24).c_str());
+      } else if (key == "property") {
+        std::string type, a, b;
+        ss >> type >> a >> b;
+        if (type == "list" ? !(is_type(a) && is_type(b)) : !is_type(type))
+          bad(lines, "unknown property type in '" + line.substr(0, 60) + "'");
+      } else if (key != "format" && key != "comment" && key != "obj_info" && !key.empty()) {
+        bad(lines, "unknown keyword '" + key.substr(0, 24) + "'");
+      }
+    }
+    if (!ended) bad(lines, "the header has no end_header");
+  } else {  // .off: "[ST][C][N][4]OFF" (maybe with the counts on the same line), comments, "nv nf ne"
+    // Only this text form is passed to OpenMesh, which otherwise takes whatever follows a
+    // damaged keyword for counts (a 4.7 GB allocation, found by fuzz_mesh_file).
+    std::vector<std::string> words;
+    bool keyword = false;
+    while (words.size() < 2 && std::getline(in, line)) {
+      const size_t hash = line.find('#');
+      if (hash != std::string::npos) line.resize(hash);
+      std::istringstream ss(line);
+      for (std::string w; ss >> w;) {
+        if (!keyword) {
+          static const std::vector<std::string> kKeywords = {"OFF",    "COFF",    "NOFF", "CNOFF", "STOFF", "STCOFF",
+                                                             "STNOFF", "STCNOFF", "4OFF", "C4OFF", "N4OFF"};
+          if (std::find(kKeywords.begin(), kKeywords.end(), w) == kKeywords.end())
+            throw std::runtime_error(path + ": not a text OFF file (it starts with '" + w.substr(0, 24) +
+                                     "'; binary and nOFF files are not read)");
+          keyword = true;
+          std::string more;
+          if (ss >> more) {
+            // OpenMesh reads the counts from the next line whatever this one holds after the
+            // keyword (it took "0-01" there for -1 vertices: 17 GB, found by fuzz_mesh_file).
+            if (more == "BINARY") throw std::runtime_error(path + ": binary OFF files are not read");
+            throw std::runtime_error(path + ": the OFF keyword line holds '" + more.substr(0, 24) +
+                                     "': the counts belong on the next line");
+          }
+          break;
+        }
+        words.push_back(w);
+      }
+    }
+    if (words.size() < 2) throw std::runtime_error(path + ": the OFF header has no vertex and face counts");
+    vertices = number(words[0], "vertex");
+    faces = number(words[1], "face");
+    if (vertices <= kMaxMeshVertices && faces <= kMaxMeshFaces && vertices <= static_cast<long long>(bytes) &&
+        faces <= static_cast<long long>(bytes)) {
+      // The body too: OpenMesh takes a negative or damaged face size for a count of billions
+      // (found by fuzz_mesh_file). Vertex lines: three numbers; face lines: n in 3..1024, then
+      // n indices below the vertex count.
+      const auto body_error = [&](long long item, const std::string& why) {
+        throw std::runtime_error(path + ": OFF " + why + " (item " + std::to_string(item) + ")");
+      };
+      const auto next = [&](std::string& w) -> bool {
+        for (;;) {
+          if (in >> w) {
+            if (w[0] != '#') return true;
+            std::getline(in, line);  // a comment
+            continue;
+          }
+          return false;
+        }
+      };
+      std::string w;
+      for (long long v = 0; v < vertices; ++v) {
+        std::getline(in >> std::ws, line);
+        const size_t hash = line.find('#');
+        if (hash != std::string::npos) line.resize(hash);
+        std::istringstream ss(line);
+        double c[3];
+        if (!(ss >> c[0] >> c[1] >> c[2]) ||
+            !(std::abs(c[0]) <= 1e30 && std::abs(c[1]) <= 1e30 && std::abs(c[2]) <= 1e30))
+          body_error(v, "vertex line is not three finite numbers");
+      }
+      for (long long f = 0; f < faces; ++f) {
+        if (!next(w)) body_error(f, "face list ends early");
+        const long long n = number(w, "face size");
+        if (n < 3 || n > 1024) body_error(f, "face size " + std::to_string(n) + " is outside 3..1024");
+        std::getline(in, line);
+        std::istringstream ss(line);
+        for (long long k = 0; k < n; ++k) {
+          std::string idx;
+          if (!(ss >> idx)) body_error(f, "face has fewer indices than its size");
+          if (number(idx, "face index") >= vertices) body_error(f, "face index " + idx + " is not a vertex");
+        }
+      }
+    }
+  }
+  // Every element takes at least one byte of the file (three floats in a binary PLY, "x y z" in text).
+  if (vertices > kMaxMeshVertices || (vertices > 0 && static_cast<unsigned long long>(vertices) > bytes))
+    throw std::runtime_error(path + ": the header declares " + std::to_string(vertices) + " vertices; at most " +
+                             std::to_string(kMaxMeshVertices) + " are read, and no more than the file's " +
+                             std::to_string(bytes) + " bytes can hold");
+  if (faces > kMaxMeshFaces || (faces > 0 && static_cast<unsigned long long>(faces) > bytes))
+    throw std::runtime_error(path + ": the header declares " + std::to_string(faces) + " faces; at most " +
+                             std::to_string(kMaxMeshFaces) + " are read, and no more than the file's " +
+                             std::to_string(bytes) + " bytes can hold");
+  return {vertices, faces};
+}
+
+/// The "v" and "f" lines of an OBJ file, which is checked line by line first: OpenMesh 9's OBJ
+/// reader crashes on a face corner without a vertex index ("f /1 2 5") and indexes out of
+/// range on bad indices (found by fuzz_mesh_file). Every face corner must be v, v/vt, v//vn
+/// or v/vt/vn with v a vertex defined above it (1-based, or negative: relative); NUL bytes
+/// and more than kMaxMeshVertices vertices are refused.
+std::pair<long long, long long> obj_counts(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  long long v = 0, f = 0, number = 0;
+  const auto bad = [&](const std::string& why) {
+    throw std::runtime_error(path + ":" + std::to_string(number) + ": " + why);
+  };
+  const auto index = [&](const std::string& s, size_t a, size_t b, bool required) -> bool {
+    if (a == b) {
+      if (required) bad("a face corner without a vertex index");
+      return false;
+    }
+    size_t i = a + (s[a] == '-' ? 1 : 0);
+    if (i == b || b - i > 12) bad("bad index '" + s.substr(a, std::min<size_t>(b - a, 24)) + "'");
+    for (size_t k = i; k < b; ++k)
+      if (!std::isdigit(static_cast<unsigned char>(s[k])))
+        bad("bad index '" + s.substr(a, std::min<size_t>(b - a, 24)) + "'");
+    return true;
+  };
+  while (std::getline(in, line)) {
+    ++number;
+    if (line.find('\0') != std::string::npos) bad("a NUL byte (not a text OBJ file)");
+    if (line.size() > 1 && std::isspace(static_cast<unsigned char>(line[1]))) {
+      if (line[0] == 'v' && ++v > kMaxMeshVertices) bad("more than " + std::to_string(kMaxMeshVertices) + " vertices");
+      if (line[0] != 'f') continue;
+      ++f;
+      std::istringstream ss(line.substr(2));
+      for (std::string c; ss >> c;) {
+        const size_t s1 = c.find('/'), s2 = s1 == std::string::npos ? s1 : c.find('/', s1 + 1);
+        const size_t end_v = std::min(s1, c.size());
+        index(c, 0, end_v, true);
+        const long long vi = std::stoll(c.substr(0, end_v));
+        if (vi == 0 || vi > v || -vi > v) bad("face corner '" + c.substr(0, 24) + "' names no vertex defined above it");
+        if (s1 != std::string::npos) {
+          index(c, s1 + 1, std::min(s2, c.size()), false);
+          if (s2 != std::string::npos) index(c, s2 + 1, c.size(), false);
+          if (s2 != std::string::npos && c.find('/', s2 + 1) != std::string::npos)
+            bad("bad face corner '" + c.substr(0, 24) + "'");
+        }
+      }
+    }
+  }
+  return {v, f};
+}
+
 MeshData read_points(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(path + ": cannot open file");
@@ -33,11 +246,17 @@ MeshData read_points(const std::string& path) {
     ++number;
     const size_t hash = line.find('#');
     if (hash != std::string::npos) line.resize(hash);
+    if (line.find_first_not_of(" \t\r\v\f") == std::string::npos) continue;  // blank line
     std::istringstream ss(line);
     double x, y, z;
-    if (!(ss >> x)) continue;  // blank line
-    if (!(ss >> y >> z) || !std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
-      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'x y z'");
+    // A line that does not start with three finite numbers ("nan 0 0", "v 1 2 3") is an
+    // error, never skipped: every point of the file is deformed, in order.
+    // Beyond 1e30 is refused too: a double past float's range made the conversion undefined
+    // (found by fuzz_mesh_file).
+    if (!(ss >> x >> y >> z) || !(std::abs(x) <= 1e30) || !(std::abs(y) <= 1e30) || !(std::abs(z) <= 1e30))
+      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'x y z' with finite numbers");
+    if (m.positions.size() / 3 >= static_cast<size_t>(kMaxMeshVertices))
+      throw std::runtime_error(path + ": more than " + std::to_string(kMaxMeshVertices) + " points");
     m.positions.insert(m.positions.end(), {static_cast<float>(x), static_cast<float>(y), static_cast<float>(z)});
   }
   return m;
@@ -77,13 +296,21 @@ MeshData read_mesh(const std::string& path, int* dropped_faces) {
   }
   if (ext != ".obj" && ext != ".ply" && ext != ".off")
     throw std::runtime_error(path + ": unknown mesh format '" + ext + "' (use .obj, .ply, .off or .xyz)");
+  // The file's own counts: the header's of a PLY or OFF, the "v" and "f" lines of an OBJ.
+  const auto [file_vertices, file_faces] = ext == ".obj" ? obj_counts(path) : check_header_counts(path, ext);
   PolyMesh mesh;
   OpenMesh::IO::Options options;
   if (!OpenMesh::IO::read_mesh(mesh, path, options))
     throw std::runtime_error(path + ": OpenMesh could not read it (not a valid " + ext.substr(1) + " file?)");
+  // OpenMesh adds a face it cannot add to a manifold mesh with copies of its vertices,
+  // appended after the file's own: those copies are not the file's points. Only the file's
+  // vertices are kept, in order, and faces that would need a copy are dropped (counted).
+  const long long kept = file_vertices >= 0 ? std::min<long long>(file_vertices, mesh.n_vertices())
+                                            : static_cast<long long>(mesh.n_vertices());
   MeshData m;
-  m.positions.reserve(3 * mesh.n_vertices());
+  m.positions.reserve(3 * static_cast<size_t>(kept));
   for (const auto vh : mesh.vertices()) {
+    if (vh.idx() >= kept) break;
     const auto p = mesh.point(vh);
     for (int k = 0; k < 3; ++k) {
       if (!std::isfinite(p[k]))
@@ -92,23 +319,21 @@ MeshData read_mesh(const std::string& path, int* dropped_faces) {
     }
   }
   if (m.positions.empty()) throw std::runtime_error(path + ": no vertices");
+  long long on_copies = 0;
   for (const auto fh : mesh.faces()) {
     std::vector<int32_t> corners;
     for (const auto vh : mesh.fv_range(fh)) corners.push_back(vh.idx());
+    if (std::any_of(corners.begin(), corners.end(), [&](int32_t c) { return c >= kept; })) {
+      ++on_copies;
+      continue;
+    }
     for (size_t i = 1; i + 1 < corners.size(); ++i)
       m.triangles.insert(m.triangles.end(), {corners[0], corners[i], corners[i + 1]});
   }
   if (dropped_faces) {
-    // OpenMesh drops faces it cannot add (complex edges); count the file's faces for OBJ/OFF.
-    int faces = -1;
-    if (ext == ".obj") {
-      std::ifstream in(path);
-      std::string line;
-      faces = 0;
-      while (std::getline(in, line))
-        if (line.size() > 1 && line[0] == 'f' && std::isspace(static_cast<unsigned char>(line[1]))) ++faces;
-    }
-    if (faces >= 0) *dropped_faces = std::max(0, faces - static_cast<int>(mesh.n_faces()));
+    // Faces OpenMesh could not add at all, and those it added on copied vertices.
+    const long long read = static_cast<long long>(mesh.n_faces()) - on_copies;
+    *dropped_faces = file_faces >= 0 ? static_cast<int>(std::max(0LL, file_faces - read)) : static_cast<int>(on_copies);
   }
   return m;
 }
@@ -191,6 +416,12 @@ Pc2Data read_pc2(const std::string& path) {
   d.sample_count = static_cast<int32_t>(get_u32(h + 28));
   if (d.point_count < 0 || d.sample_count < 0) throw std::runtime_error(path + ": bad PC2 header");
   const size_t n = static_cast<size_t>(d.point_count) * static_cast<size_t>(d.sample_count) * 3;
+  // The header's counts against the file's size, before allocating for them.
+  std::error_code ec;
+  const auto bytes = std::filesystem::file_size(path, ec);
+  if (ec || 4 * static_cast<unsigned long long>(n) > bytes)
+    throw std::runtime_error(path + ": PC2 header declares " + std::to_string(d.point_count) + " points x " +
+                             std::to_string(d.sample_count) + " samples, more than the file holds (truncated?)");
   std::vector<unsigned char> raw(4 * n);
   if (!in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size())))
     throw std::runtime_error(path + ": PC2 file is truncated");

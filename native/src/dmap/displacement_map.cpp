@@ -199,6 +199,20 @@ dvec3 closest_on_triangle(const dvec3& p, const dvec3& a, const dvec3& b, const 
 
 // ---- ClosestPoint --------------------------------------------------------------------------
 
+namespace {
+
+/// The grid cell (0..dims-1) of a coordinate `x` cells from the grid's corner. Clamped in
+/// double before the conversion: a query point far outside the grid (|x| beyond int's range,
+/// or NaN) would make static_cast<int> undefined (found by fuzz_dmap, issue 15).
+int grid_cell(double x, int dims) {
+    const double c = std::floor(x);
+    if (!(c >= 0.0)) return 0;  // also NaN
+    if (!(c <= static_cast<double>(dims - 1))) return dims - 1;
+    return static_cast<int>(c);
+}
+
+}  // namespace
+
 ClosestPoint::ClosestPoint(std::vector<dvec3> positions, std::vector<int32_t> triangles)
     : positions_(std::move(positions)), triangles_(std::move(triangles)) {
     const size_t T = triangles_.size() / 3;
@@ -216,7 +230,7 @@ ClosestPoint::ClosestPoint(std::vector<dvec3> positions, std::vector<int32_t> tr
     lo_ = lo;
     for (int k = 0; k < 3; ++k) dims_[k] = std::clamp(static_cast<int>(std::ceil(size[k] / cell)), 1, 256);
     const auto cell_of = [&](const dvec3& p, int k) {
-        return std::clamp(static_cast<int>(std::floor((p[k] - lo_[k]) / cell_)), 0, dims_[k] - 1);
+        return grid_cell((p[k] - lo_[k]) / cell_, dims_[k]);
     };
     const size_t cells = static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2];
     std::vector<uint32_t> count(cells + 1, 0);
@@ -245,7 +259,7 @@ double ClosestPoint::query(const dvec3& p, int* triangle, dvec3* barycentric) co
     int max_ring = 0;
     for (int k = 0; k < 3; ++k) {
         clamped[k] = std::clamp(p[k], lo_[k], lo_[k] + dims_[k] * cell_);
-        home[k] = std::clamp(static_cast<int>(std::floor((p[k] - lo_[k]) / cell_)), 0, dims_[k] - 1);
+        home[k] = grid_cell((p[k] - lo_[k]) / cell_, dims_[k]);
         max_ring = std::max({max_ring, home[k], dims_[k] - 1 - home[k]});
     }
     const double outside2 = glm::dot(p - clamped, p - clamped);

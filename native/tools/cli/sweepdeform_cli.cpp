@@ -120,10 +120,50 @@ struct Options {
     std::string up = "y";
     int frame_a = 0, frame_b = -1, frame_step = 1;
     bool frames_given = false, skin_weights = true, weld = false, volume = true, list_bones = false, quiet = false,
-         root_from_offset = false;
+         root_from_offset = false, map_grid_given = false, map_snap_given = false;
     double volume_strength = 1.0, map_snap = sd::DisplacementMap::kDefaultSnap;
     int keys_per_link = 2, map_theta = 24, map_t = 3;
 };
+
+/// `s` safe for a terminal: printable ASCII and valid UTF-8 kept, every other byte (control
+/// characters, escape sequences, broken UTF-8) written as \xNN.
+std::string printable(const std::string& s) {
+    std::string out;
+    out.reserve(s.size());
+    const auto hex = [&](unsigned char c) {
+        char b[5];
+        std::snprintf(b, sizeof b, "\\x%02X", c);
+        out += b;
+    };
+    for (size_t i = 0; i < s.size();) {
+        const auto c = static_cast<unsigned char>(s[i]);
+        if (c >= 0x20 && c < 0x7F) {
+            out += static_cast<char>(c);
+            ++i;
+            continue;
+        }
+        // A well-formed UTF-8 sequence of 2..4 bytes (no overlongs, no surrogates) is kept.
+        const int n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+        bool ok = n > 0 && i + static_cast<size_t>(n) <= s.size();
+        for (int k = 1; ok && k < n; ++k) ok = (static_cast<unsigned char>(s[i + k]) & 0xC0) == 0x80;
+        if (ok && n == 3) {
+            const auto c1 = static_cast<unsigned char>(s[i + 1]);
+            ok = !(c == 0xE0 && c1 < 0xA0) && !(c == 0xED && c1 >= 0xA0);
+        }
+        if (ok && n == 4) {
+            const auto c1 = static_cast<unsigned char>(s[i + 1]);
+            ok = !(c == 0xF0 && c1 < 0x90) && !(c == 0xF4 && c1 >= 0x90);
+        }
+        if (ok) {
+            out.append(s, i, static_cast<size_t>(n));
+            i += static_cast<size_t>(n);
+        } else {
+            hex(c);
+            ++i;
+        }
+    }
+    return out;
+}
 
 [[noreturn]] void usage_error(const std::string& what) { throw Failure(kUsage, what + " (see sweepdeform --help)"); }
 
@@ -213,12 +253,19 @@ Options parse_args(int argc, char** argv) {
             o.map_snap = v == "inf" ? sd::DisplacementMap::kSurface : std::strtod(v.c_str(), &end);
             if ((v != "inf" && (end == v.c_str() || *end)) || !(o.map_snap >= 0.0))
                 usage_error("--map-snap must be a number >= 0 or inf");
+            o.map_snap_given = true;
         } else if (a == "--map-grid") {
             const std::string g = value("--map-grid");
             const size_t x = g.find('x');
             if (x == std::string::npos) usage_error("--map-grid wants NxM, e.g. 24x3");
             o.map_theta = parse_int(g.substr(0, x), "--map-grid");
             o.map_t = parse_int(g.substr(x + 1), "--map-grid");
+            // The displacement map's own limits (DisplacementMapOptions), checked before anything
+            // is loaded or fitted.
+            if (o.map_theta < 4 || o.map_theta > 256 || o.map_t < 1 || o.map_t > 64)
+                usage_error("--map-grid NxM wants N in 4..256 (around a sweep) and M in 1..64 (per span), got '" +
+                            printable(g) + "'");
+            o.map_grid_given = true;
         } else if (a == "--list-bones")
             o.list_bones = true;
         else if (a == "-q" || a == "--quiet")
@@ -235,13 +282,22 @@ Options parse_args(int argc, char** argv) {
     if (o.list_bones) return o;
     if (o.motion.empty() == o.pose_file.empty()) usage_error("give either a BVH file or --pose-file");
     if (o.output.empty()) usage_error("no output (-o FILE.pc2 or -o FILE.obj)");
+    if (o.points.empty() && (o.map_grid_given || o.map_snap_given))
+        usage_error(std::string(o.map_grid_given ? "--map-grid" : "--map-snap") +
+                    " is for --points (the displacement map binds the points); give --points FILE");
     const std::string ext = lower_extension(o.output);
     if (ext != ".pc2" && ext != ".obj") usage_error("output '" + o.output + "' must end in .pc2 or .obj");
     return o;
 }
 
 void require_file(const std::string& path, const char* what) {
-    if (!fs::is_regular_file(path)) throw Failure(kInput, std::string(what) + " '" + path + "' does not exist");
+    std::error_code ec;
+    const fs::file_status st = fs::status(path, ec);
+    const std::string name = std::string(what) + " '" + printable(path) + "'";
+    if (fs::is_regular_file(st)) return;
+    if (fs::is_directory(st)) throw Failure(kInput, name + " is a directory, not a file");
+    if (fs::exists(st)) throw Failure(kInput, name + " is not a regular file");
+    throw Failure(kInput, name + " does not exist");
 }
 
 /// Blender Z-up <-> Y-up file axes (glTF's and Blender's OBJ exporter's): (x,y,z)_Z = (x,-z,y)_Y.
@@ -471,10 +527,11 @@ int run(const Options& o) {
             retarget->translation_scale());
         if (o.list_bones) {
             for (int b = 0; b < B; ++b)
-                std::printf("%3d %-24s %s\n", b, c.bone_names[static_cast<size_t>(b)].c_str(),
-                            map.source[static_cast<size_t>(b)] >= 0
-                                ? clip->joints[static_cast<size_t>(map.source[static_cast<size_t>(b)])].name.c_str()
-                                : "-");
+                std::printf(
+                    "%3d %-24s %s\n", b, printable(c.bone_names[static_cast<size_t>(b)]).c_str(),
+                    map.source[static_cast<size_t>(b)] >= 0
+                        ? printable(clip->joints[static_cast<size_t>(map.source[static_cast<size_t>(b)])].name).c_str()
+                        : "-");
             return kOk;
         }
     } else if (!o.pose_file.empty()) {
@@ -493,7 +550,7 @@ int run(const Options& o) {
         log("poses      %s: %d frames\n", o.pose_file.c_str(), frame_count);
     }
     if (o.list_bones) {
-        for (int b = 0; b < B; ++b) std::printf("%3d %s\n", b, c.bone_names[static_cast<size_t>(b)].c_str());
+        for (int b = 0; b < B; ++b) std::printf("%3d %s\n", b, printable(c.bone_names[static_cast<size_t>(b)]).c_str());
         return kOk;
     }
     if (frame_count < 1) throw Failure(kInput, "the motion has no frames");
@@ -557,11 +614,19 @@ int run(const Options& o) {
     if (!o.points.empty()) {
         require_file(o.points, "points");
         sd::io::MeshData pts;
+        int dropped = 0;
         try {
-            pts = sd::io::read_mesh(o.points);
+            pts = sd::io::read_mesh(o.points, &dropped);
         } catch (const std::exception& e) {
             throw Failure(kInput, e.what());
         }
+        // Every point is bound; faces OpenMesh could not add are only missing from an OBJ
+        // output, so they are counted and told, never dropped in silence.
+        if (dropped > 0)
+            std::fprintf(stderr,
+                         "sweepdeform: warning: points '%s': %d of its faces were dropped by OpenMesh "
+                         "(non-manifold); every point is deformed, the output OBJ lacks those faces\n",
+                         printable(o.points).c_str(), dropped);
         file_to_scene(pts.positions, o.up);
         t0 = std::chrono::steady_clock::now();
         try {
@@ -682,10 +747,13 @@ int main(int argc, char** argv) {
         const Options o = parse_args(argc, argv);
         return run(o);
     } catch (const Failure& e) {
-        std::fprintf(stderr, "sweepdeform: error: %s\n", e.what());
+        std::fprintf(stderr, "sweepdeform: error: %s\n", printable(e.what()).c_str());
         return e.code;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "sweepdeform: error: out of memory (an input larger than this machine can hold)\n");
+        return kInput;
     } catch (const std::exception& e) {
-        std::fprintf(stderr, "sweepdeform: error: %s\n", e.what());
+        std::fprintf(stderr, "sweepdeform: error: %s\n", printable(e.what()).c_str());
         return kCore;
     }
 }

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -414,6 +415,85 @@ TEST(MeshIo, ObjPlyOffXyzAndPc2RoundTrip) {
   EXPECT_EQ(std::string(magic, 12), std::string("POINTCACHE2\0", 12));
 }
 
+TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
+  // Issue 15: a PLY/OFF header claiming 4e9 vertices made OpenMesh try to reserve ~100 GB.
+  const fs::path dir = scratch("headers");
+  const auto error = [&](const std::string& name, const std::string& text) {
+    std::ofstream((dir / name).string(), std::ios::binary) << text;
+    try {
+      read_mesh((dir / name).string());
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string("(no error)");
+  };
+  const std::string ply_head = "ply\nformat ascii 1.0\nelement vertex ";
+  const std::string ply_tail = "\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 2 3\n";
+  std::string e = error("huge.ply", ply_head + "4000000000" + ply_tail);
+  EXPECT_NE(e.find("declares 4000000000 vertices; at most 50000000 are read"), std::string::npos) << e;
+  e = error("huge.off", "OFF\n4000000000 1 0\n0 0 0\n");
+  EXPECT_NE(e.find("declares 4000000000 vertices"), std::string::npos) << e;
+  e = error("faces.off", "OFF\n# a comment\n3 999999999 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(e.find("declares 999999999 faces; at most 100000000"), std::string::npos) << e;
+  e = error("more_than_bytes.off", "OFF\n1000 0 0\n0 0 0\n");
+  EXPECT_NE(e.find("no more than the file's"), std::string::npos) << e;
+  e = error("negative.ply", ply_head + "-5" + ply_tail);
+  EXPECT_NE(e.find("vertex count '-5' is not a count"), std::string::npos) << e;
+  e = error("exponent.ply", ply_head + "4e9" + ply_tail);
+  EXPECT_NE(e.find("is not a count"), std::string::npos) << e;
+  // Bounded counts still read.
+  EXPECT_EQ(error("ok.ply", ply_head + "1" + ply_tail), "(no error)");
+  // Files OpenMesh 9 crashes on, loops forever on or allocates gigabytes for (found by
+  // fuzz_mesh_file): refused before OpenMesh reads them. {file, content, the error says}.
+  const std::vector<std::array<std::string, 3>> refused = {
+      {"damaged.off", "OFF&9)" + std::string(32, '\xff') + "\n", "not a text OFF file"},  // was 4.7 GB
+      {"binary.off", "OFF BINARY\n", "binary OFF files are not read"},
+      {"face_size.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n-2 1 0\n", "face size count '-2' is not a count"},  // 2 GB
+      {"face_index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n", "OFF face index 7 is not a vertex (item 0)"},
+      // Counts on the keyword line: OpenMesh reads the next line for them (took "0-01" for -1: 17 GB).
+      {"same_line.off", "OFF 4 1 0\n0-01\n0 1\n", "the OFF keyword line holds '4': the counts belong on the next line"},
+      {"no_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf /1 2 3\n", "no_index.obj:4: a face corner without a vertex index"},
+      {"out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+       "out_of_range.obj:4: face corner '4' names no vertex defined above it"},
+      {"format.ply", "ply\nformat ascii 0.\xb5" + std::string(3, '\0') + "ement vertex 6\n",
+       "PLY header line 2: a NUL byte in the header"},
+      {"format2.ply", "ply\nformat ascii 2.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
+       "PLY header line 2: unknown format 'format ascii 2.0'"},
+      {"orphan.ply", "ply\nformat ascii 1.0\nproperty list uchar int vertex_indices\nend_header\n",
+       "PLY header line 3: a property before any element"},
+      {"no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "the header has no end_header"},
+      {"bad_type.ply", ply_head + "1\nproperty lroperty float y\nend_header\n0 0 0\n",
+       "PLY header line 4: unknown property type"},
+  };
+  for (const auto& [name, content, says] : refused) {
+    e = error(name, content);
+    EXPECT_NE(e.find(says), std::string::npos) << name << ": " << e;
+  }
+  EXPECT_EQ(error("relative.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf -3/1 -2/1 -1/1\n"), "(no error)");
+  // XYZ: a line that is not three finite numbers is an error naming the line, never skipped.
+  e = error("nan.xyz", "1 2 3\nnan 0 0\n4 5 6\n");
+  EXPECT_NE(e.find("nan.xyz:2: expected 'x y z' with finite numbers"), std::string::npos) << e;
+  e = error("inf.xyz", "1 2 3\n4 inf 6\n");
+  EXPECT_NE(e.find("inf.xyz:2:"), std::string::npos) << e;
+  e = error("huge.xyz", "1 2 3\n" + std::string(150, '9') + " 5 6\n");  // beyond float: was undefined
+  EXPECT_NE(e.find("huge.xyz:2: expected 'x y z' with finite numbers"), std::string::npos) << e;
+  e = error("text.xyz", "v 1 2 3\n");
+  EXPECT_NE(e.find("text.xyz:1:"), std::string::npos) << e;
+  // PC2: sizes against the file before allocating.
+  {
+    std::ofstream out((dir / "huge.pc2").string(), std::ios::binary);
+    const unsigned char h[32] = {'P', 'O', 'I', 'N', 'T', 'C', 'A', 'C', 'H', 'E', '2', 0, 1, 0, 0, 0,
+                                 0xFF, 0xFF, 0xFF, 0x7F, 0, 0, 0, 0, 0, 0, 0x80, 0x3F, 0xFF, 0xFF, 0xFF, 0x7F};
+    out.write(reinterpret_cast<const char*>(h), 32);
+  }
+  try {
+    read_pc2((dir / "huge.pc2").string());
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& ex) {
+    EXPECT_NE(std::string(ex.what()).find("more than the file holds"), std::string::npos) << ex.what();
+  }
+}
+
 // ---- the tool ----------------------------------------------------------------------------
 
 struct ToolRun {
@@ -617,6 +697,84 @@ TEST(Tool, ErrorsAndExitCodes) {
       run_tool("'" + human("mh_male_game_engine.glb") + "' '" + clip("cmu_02_02_walk_daz.bvh") + "' --list-bones");
   EXPECT_EQ(list.code, 0);
   EXPECT_NE(list.out.find("upperarm_l               lShldr"), std::string::npos) << list.out;
+}
+
+TEST(Tool, ArgumentsAreCheckedBeforeLoading) {
+  // Issue 15: exit codes and messages of the checks that need no character.
+  const fs::path dir = scratch("arguments");
+  EXPECT_EQ(run_tool("--help").code, 0);
+  EXPECT_EQ(run_tool("--version").code, 0);
+  // A directory as the character: said so (exit 2), not "does not exist".
+  const ToolRun d = run_tool("'" + dir.string() + "' x.bvh -o '" + (dir / "x.pc2").string() + "'");
+  EXPECT_EQ(d.code, 2) << d.out;
+  EXPECT_NE(d.out.find("character '" + dir.string() + "' is a directory, not a file"), std::string::npos) << d.out;
+  // --map-grid out of range: refused (exit 1) before the missing character is even looked at.
+  const ToolRun g = run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --points p.xyz --map-grid 2x3 -o " +
+                             (dir / "x.pc2").string());
+  EXPECT_EQ(g.code, 1) << g.out;
+  EXPECT_NE(g.out.find("--map-grid NxM wants N in 4..256 (around a sweep) and M in 1..64 (per span), got '2x3'"),
+            std::string::npos) << g.out;
+  EXPECT_EQ(run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --points p.xyz --map-grid 24x65 -o x.pc2").code, 1);
+  EXPECT_EQ(run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --points p.xyz --map-grid 24x -o x.pc2").code, 1);
+  // --map-grid / --map-snap without --points would be ignored: refused instead.
+  const ToolRun np = run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --map-grid 24x3 -o x.pc2");
+  EXPECT_EQ(np.code, 1) << np.out;
+  EXPECT_NE(np.out.find("--map-grid is for --points"), std::string::npos) << np.out;
+  EXPECT_EQ(run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --map-snap 0.01 -o x.pc2").code, 1);
+  // Non-printable bytes in an argument are escaped in the message, never sent to the terminal.
+  const ToolRun esc = run_tool("\"$(printf '/nonexistent/\\033[31mred\\007.glb')\" x.bvh -o x.pc2");
+  EXPECT_EQ(esc.code, 2) << esc.out;
+  EXPECT_EQ(esc.out.find('\x1b'), std::string::npos) << esc.out;
+  EXPECT_EQ(esc.out.find('\x07'), std::string::npos) << esc.out;
+  EXPECT_NE(esc.out.find("\\x1B[31mred\\x07.glb"), std::string::npos) << esc.out;
+}
+
+TEST(Tool, BadInputFilesAreNamedNeverDropped) {
+  REQUIRE_DATA();
+  const fs::path dir = scratch("bad_inputs");
+  const std::string mh = human("mh_male_game_engine.glb"), run = clip("cmu_09_11_run.bvh");
+  // A PLY character whose header claims 4e9 vertices: refused with the limit (exit 2), no bad_alloc.
+  std::ofstream((dir / "huge.ply").string())
+      << "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\n"
+         "end_header\n0 0 0\n";
+  const ToolRun huge = run_tool("'" + (dir / "huge.ply").string() + "' --skeleton '" + mh + "' '" + run + "' -o '" +
+                                (dir / "x.pc2").string() + "'");
+  EXPECT_EQ(huge.code, 2) << huge.out;
+  EXPECT_NE(huge.out.find("at most 50000000 are read"), std::string::npos) << huge.out;
+  EXPECT_EQ(huge.out.find("bad_alloc"), std::string::npos) << huge.out;
+  // A garbage bone map: the message escapes its bytes (exit 3: nothing maps).
+  {
+    std::ofstream map((dir / "garbage.map").string(), std::ios::binary);
+    map << "\x1b]0;pwned\x07\xff\xfe lShldr\n";
+  }
+  const ToolRun bm = run_tool("'" + mh + "' '" + clip("cmu_02_02_walk_daz.bvh") + "' --bone-map '" +
+                              (dir / "garbage.map").string() + "' -o '" + (dir / "x.pc2").string() + "'");
+  EXPECT_EQ(bm.code, 3) << bm.out;
+  EXPECT_NE(bm.out.find("bone map: the character has no bone '\\x1B]0;pwned\\x07\\xFF\\xFE'"), std::string::npos)
+      << bm.out;
+  EXPECT_EQ(bm.out.find('\x1b'), std::string::npos);
+  // --points: a NaN point is refused naming its line (exit 2), not skipped.
+  std::ofstream((dir / "nan.xyz").string()) << "0 0 1\nnan 0 1\n";
+  const ToolRun nan = run_tool("'" + mh + "' '" + run + "' --points '" + (dir / "nan.xyz").string() + "' -o '" +
+                               (dir / "x.pc2").string() + "' --frames 0:0");
+  EXPECT_EQ(nan.code, 2) << nan.out;
+  EXPECT_NE(nan.out.find("nan.xyz:2: expected 'x y z' with finite numbers"), std::string::npos) << nan.out;
+  // --points: faces OpenMesh cannot add (three triangles on one edge, the last two the same way
+  // round) are counted and told, the copies of vertices OpenMesh makes for them never output;
+  // every point is still deformed (exit 0).
+  const Character c = load_gltf_character(mh);
+  {
+    std::ofstream obj((dir / "fan.obj").string());
+    for (int v = 0; v < 5; ++v)  // Y-up, as the tool reads OBJ files
+      obj << "v " << c.positions[3 * v] << ' ' << c.positions[3 * v + 2] << ' ' << -c.positions[3 * v + 1] << '\n';
+    obj << "f 1 2 3\nf 1 2 4\nf 1 2 5\n";
+  }
+  const ToolRun fan = run_tool("'" + mh + "' '" + run + "' --points '" + (dir / "fan.obj").string() + "' -o '" +
+                               (dir / "fan.pc2").string() + "' --frames 0:0");
+  EXPECT_EQ(fan.code, 0) << fan.out;
+  EXPECT_NE(fan.out.find("warning: points '" + (dir / "fan.obj").string() + "': 2 of its faces were dropped"),
+            std::string::npos) << fan.out;
+  EXPECT_EQ(read_pc2((dir / "fan.pc2").string()).point_count, 5);
 }
 
 }  // namespace

@@ -289,6 +289,11 @@ TEST(DisplacementMapAnalytic, ClosestPointMatchesBruteForce) {
     const double d = cp.query(far, &t, &bary);
     EXPECT_LE(d, nearest_vertex);
     EXPECT_GE(d, nearest_vertex - 0.05);  // within an edge of the nearest vertex
+    // Beyond int's range in grid cells (fuzz_dmap, issue 15: the cell index was converted to
+    // int before it was clamped, undefined behaviour UBSan reports): the border cell, found.
+    t = -1;
+    EXPECT_GT(cp.query(dvec3(-3e38, 0.0, 0.0), &t, &bary), 1e38);
+    EXPECT_GE(t, 0);
 }
 
 TEST(DisplacementMapAbi, FitEvaluateBindThroughBlobs) {

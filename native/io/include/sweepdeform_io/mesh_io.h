@@ -15,10 +15,20 @@ struct MeshData {
   std::vector<int32_t> triangles;  ///< #T*3; polygons are split into fans
 };
 
+/// The largest meshes read_mesh accepts (a PLY or OFF header declaring more is refused before
+/// anything is allocated, as is one declaring more elements than its file has bytes).
+constexpr long long kMaxMeshVertices = 50'000'000;
+constexpr long long kMaxMeshFaces = 100'000'000;
+
 /// Reads .obj, .ply, .off (OpenMesh: vertex order kept, faces with more than 3 corners split
 /// into fans, faces OpenMesh cannot add to a manifold mesh dropped and counted in
-/// `dropped_faces`) or .xyz / .txt / .pts (one point "x y z ..." per line, '#' comments).
-/// Throws std::runtime_error naming the file when it cannot be read or has no vertices.
+/// `dropped_faces`; the vertices are exactly the file's, never the copies OpenMesh makes for
+/// such faces) or .xyz / .txt / .pts (one point "x y z ..." per line, '#' comments).
+/// OFF files are read in their text form only ([ST][C][N][4]OFF; not binary, not nOFF), PLY
+/// files only with a header this reader understands (types, end_header).
+/// Throws std::runtime_error naming the file when it cannot be read, has no vertices, declares
+/// more than kMaxMeshVertices / kMaxMeshFaces, or has a point line that is not three finite
+/// numbers.
 MeshData read_mesh(const std::string& path, int* dropped_faces = nullptr);
 
 /// Writes an OBJ file ("v" lines, then "f" lines with 1-based indices when there are
