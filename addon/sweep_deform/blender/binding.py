@@ -301,8 +301,10 @@ def replaced_armature_modifier(obj):
 
 
 def _portable(obj):
-    """(Sweep Deform modifier, replaced Armature modifier) of a local bound mesh, or None."""
-    if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or linked_reason(obj):
+    """(Sweep Deform modifier, replaced Armature modifier) of a bound mesh object whose
+    modifiers this file can change (a local object, or a library override, whose mesh may stay
+    linked: the modifiers are the object's), or None."""
+    if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or obj.library is not None:
         return None
     md_arm = replaced_armature_modifier(obj)
     md_sweep = modifier.find(obj)

@@ -29,11 +29,12 @@ double span_thickness(const SweepGeometry& g, int span) {
 
 void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b) {
-    // A bent sweep is shorter along its normals than at rest where it bends (a thick chain's
-    // blended bend compresses its inside; at an elbow the planes tilt); each key's
-    // cross-section grows by what its two spans lost (mean), so the volume comes back where
-    // it was lost, not at a few joint keys (a ledge across a bent torso, an elbow pushed out
-    // and into itself).
+    // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
+    // shorter than at rest where it bends; each key's cross-section grows by what its two
+    // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
+    // (which made a ledge across a bent torso). Limbs keep the paper's controller alone: on
+    // them this restoration halved the elbow's r_max but spread an edit's volume change along
+    // the whole arm (tests/blender/test_key_edit.py).
     const int K = s.key_count();
     std::vector<double> ratio(K - 1);
     for (int span = 0; span < K - 1; ++span) {
@@ -125,7 +126,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             const double target =
                 before + volume_strength_ * (s.corrected_rest_volume + edited - volume_offsets_[si] - before);
             // First where it was lost, key by key; the controller corrects what is left.
-            restore_local_volume(s, g, volume_strength_, a, b);
+            if (s.bends_smoothly) restore_local_volume(s, g, volume_strength_, a, b);
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
             volume_before[si] = before;
             volume_after[si] = r.after;

@@ -14,7 +14,7 @@
 
 namespace sd {
 
-/// Scales each key's half-axes by the square root of
+/// Thick chains (Sweep::bends_smoothly): scales each key's half-axes by the square root of
 /// how much shorter the posed sweep is than the rest sweep around the key (along its
 /// normals, the mean over its two spans), blended by `strength`. The volume controller then
 /// corrects what is left.

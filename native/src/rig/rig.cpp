@@ -195,6 +195,7 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
     if (!(s.rest_volume > 0.0)) throw InvalidInput("the sweep's rest volume is not positive");
     s.joints = key_joints(keys, s.rest_geometry.knots(), skeleton);
     s.motions = key_motions(keys, skeleton);
+    for (const KeyMotion& m : s.motions) s.bends_smoothly = s.bends_smoothly || !m.blend.empty();
     s.corrected_rest_volume = s.rest_volume;
     std::vector<std::vector<KeyCorrection>> corrections(keys.size());
     bool corrected = false;

@@ -39,6 +39,7 @@ struct Sweep {
     double rest_volume = 0.0;
     std::vector<KeyJoint> joints;    ///< #K, the joint of each key (see KeyJoint)
     std::vector<KeyMotion> motions;  ///< #K, how each key follows the skeleton (key_motion.h)
+    bool bends_smoothly = false;     ///< a thick chain: some key follows a blend of bones
     /// The volume control's V0: the rest volume of the sweep with the corrections at the
     /// rest angles applied to the key centers and orientations (half-axes uncorrected); equal
     /// to rest_volume unless a correction sits at a rest angle.
