@@ -14,7 +14,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         for (int f = -1; f < clip.frame_count && f < 4; ++f)
             for (float x : sd::io::bvh_global_matrices(clip, f))
                 if (std::isnan(x)) return 0;  // NaN channels are the caller's to refuse (the tool does)
-    } catch (const std::exception&) {
-    }
+    } catch (const std::exception&) {}
     return 0;
 }

@@ -30,8 +30,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     float at[8];
     const int32_t key = in.take<uint8_t>() % 7;
     const float angle = in.take<float>();
-    if (sd_rig_key_correction_at(rig, 0, key, angle, at) == SD_OK)
-        sdfuzz::require_finite(at, 8);
+    if (sd_rig_key_correction_at(rig, 0, key, angle, at) == SD_OK) sdfuzz::require_finite(at, 8);
     sd_deformer* d = nullptr;
     if (sd_deformer_create(rig, binding, &d) == SD_OK) {
         const std::vector<float> pose = sdfuzz::bent_pose(in.take<int8_t>() / 40.0f);

@@ -29,8 +29,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         for (int32_t t : m.triangles)
             if (t < 0 || static_cast<size_t>(t) >= V) __builtin_trap();
         if (dropped < 0) __builtin_trap();
-    } catch (const std::exception&) {
-    }
+    } catch (const std::exception&) {}
     std::remove(path.c_str());
     return 0;
 }

@@ -87,7 +87,8 @@ void fit_seeds() {
         for (int v = 0; v < V; ++v) o.put<uint8_t>(0).put<int8_t>(static_cast<int8_t>(v % 7 - 3)).put<int8_t>(0);
         for (int t = 0; t < T; ++t) {  // neighbours along the tube and around it
             const int a = t % (V - 24);
-            o.put<int16_t>(static_cast<int16_t>(a)).put<int16_t>(static_cast<int16_t>(a + 1 + (t & 1) * 22))
+            o.put<int16_t>(static_cast<int16_t>(a))
+                .put<int16_t>(static_cast<int16_t>(a + 1 + (t & 1) * 22))
                 .put<int16_t>(static_cast<int16_t>(a + 23));
         }
         o.put<uint8_t>(static_cast<uint8_t>(keys));
@@ -151,7 +152,8 @@ void dmap_seeds() {
     for (int snap = 0; snap < 2; ++snap) {
         Out o;
         o.put<uint8_t>(0).put<int16_t>(0).put<int8_t>(0).put<uint8_t>(0).put<uint8_t>(15);
-        for (int i = 0; i < 16; ++i) o.put<uint8_t>(0).put<uint8_t>(static_cast<uint8_t>(12 * i + 6)).put<int8_t>(90).put<int8_t>(-40);
+        for (int i = 0; i < 16; ++i)
+            o.put<uint8_t>(0).put<uint8_t>(static_cast<uint8_t>(12 * i + 6)).put<int8_t>(90).put<int8_t>(-40);
         o.put<float>(snap ? 1e30f : 0.1f);
         write("fuzz_dmap", snap ? "points_surface" : "points", o.b);
     }
@@ -159,18 +161,28 @@ void dmap_seeds() {
 
 void reader_seeds() {
     Out bvh;
-    bvh.text("HIERARCHY\nROOT Hips\n{\n  OFFSET 1 2 3\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
-             "Yrotation\n  JOINT Arm\n  {\n    OFFSET 0 5 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n"
-             "    {\n      OFFSET 0 0 4\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.05\n0 0 0 0 0 0 0 0 0\n"
-             "1 2 3 10 20 30 40 -50 60\n");
+    bvh.text(
+        "HIERARCHY\nROOT Hips\n{\n  OFFSET 1 2 3\n  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation "
+        "Yrotation\n  JOINT Arm\n  {\n    OFFSET 0 5 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n    End Site\n"
+        "    {\n      OFFSET 0 0 4\n    }\n  }\n}\nMOTION\nFrames: 2\nFrame Time: 0.05\n0 0 0 0 0 0 0 0 0\n"
+        "1 2 3 10 20 30 40 -50 60\n");
     write("fuzz_bvh", "two_joints.bvh", bvh.b);
     // First byte: the extension (0 obj, 1 ply, 2 off, 3 xyz).
-    write("fuzz_mesh_file", "pyramid.obj", Out().put<uint8_t>(0).text(
-        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\nf 1 3 2\nf 1 4 3\n").b);
-    write("fuzz_mesh_file", "cloud.ply", Out().put<uint8_t>(1).text(
-        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-        "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").b);
-    write("fuzz_mesh_file", "quad.off", Out().put<uint8_t>(2).text("OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n").b);
+    write("fuzz_mesh_file", "pyramid.obj",
+          Out()
+              .put<uint8_t>(0)
+              .text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0.5 0.5 1\nf 1 2 5\nf 2 3 5\nf 3 4 5\nf 4 1 5\nf 1 3 2\nf 1 "
+                    "4 3\n")
+              .b);
+    write(
+        "fuzz_mesh_file", "cloud.ply",
+        Out()
+            .put<uint8_t>(1)
+            .text("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n")
+            .b);
+    write("fuzz_mesh_file", "quad.off",
+          Out().put<uint8_t>(2).text("OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n").b);
     write("fuzz_mesh_file", "points.xyz", Out().put<uint8_t>(3).text("# points\n1 2 3\n\n4 5 6 0.1 0.2 0.3\n").b);
 }
 

@@ -229,9 +229,7 @@ ClosestPoint::ClosestPoint(std::vector<dvec3> positions, std::vector<int32_t> tr
     cell_ = cell;
     lo_ = lo;
     for (int k = 0; k < 3; ++k) dims_[k] = std::clamp(static_cast<int>(std::ceil(size[k] / cell)), 1, 256);
-    const auto cell_of = [&](const dvec3& p, int k) {
-        return grid_cell((p[k] - lo_[k]) / cell_, dims_[k]);
-    };
+    const auto cell_of = [&](const dvec3& p, int k) { return grid_cell((p[k] - lo_[k]) / cell_, dims_[k]); };
     const size_t cells = static_cast<size_t>(dims_[0]) * dims_[1] * dims_[2];
     std::vector<uint32_t> count(cells + 1, 0);
     const auto for_cells = [&](size_t t, auto&& f) {

@@ -482,8 +482,9 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
   // PC2: sizes against the file before allocating.
   {
     std::ofstream out((dir / "huge.pc2").string(), std::ios::binary);
-    const unsigned char h[32] = {'P', 'O', 'I', 'N', 'T', 'C', 'A', 'C', 'H', 'E', '2', 0, 1, 0, 0, 0,
-                                 0xFF, 0xFF, 0xFF, 0x7F, 0, 0, 0, 0, 0, 0, 0x80, 0x3F, 0xFF, 0xFF, 0xFF, 0x7F};
+    const unsigned char h[32] = {'P', 'O', 'I', 'N', 'T',  'C',  'A',  'C',  'H',  'E', '2',
+                                 0,   1,   0,   0,   0,    0xFF, 0xFF, 0xFF, 0x7F, 0,   0,
+                                 0,   0,   0,   0,   0x80, 0x3F, 0xFF, 0xFF, 0xFF, 0x7F};
     out.write(reinterpret_cast<const char*>(h), 32);
   }
   try {
@@ -713,7 +714,8 @@ TEST(Tool, ArgumentsAreCheckedBeforeLoading) {
                              (dir / "x.pc2").string());
   EXPECT_EQ(g.code, 1) << g.out;
   EXPECT_NE(g.out.find("--map-grid NxM wants N in 4..256 (around a sweep) and M in 1..64 (per span), got '2x3'"),
-            std::string::npos) << g.out;
+            std::string::npos)
+      << g.out;
   EXPECT_EQ(run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --points p.xyz --map-grid 24x65 -o x.pc2").code, 1);
   EXPECT_EQ(run_tool("/nonexistent/char.glb /nonexistent/clip.bvh --points p.xyz --map-grid 24x -o x.pc2").code, 1);
   // --map-grid / --map-snap without --points would be ignored: refused instead.
@@ -773,7 +775,8 @@ TEST(Tool, BadInputFilesAreNamedNeverDropped) {
                                (dir / "fan.pc2").string() + "' --frames 0:0");
   EXPECT_EQ(fan.code, 0) << fan.out;
   EXPECT_NE(fan.out.find("warning: points '" + (dir / "fan.obj").string() + "': 2 of its faces were dropped"),
-            std::string::npos) << fan.out;
+            std::string::npos)
+      << fan.out;
   EXPECT_EQ(read_pc2((dir / "fan.pc2").string()).point_count, 5);
 }
 
