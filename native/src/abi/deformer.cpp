@@ -52,16 +52,25 @@ sd_status sd_deformer_set_volume_offsets(sd_deformer* d, int32_t sweep_count, co
     });
 }
 
+namespace {
+
+/// The counts a frame's call gives, against the deformer's rig and binding.
+sd_status check_frame_counts(const sd_deformer* d, int32_t bone_count, int32_t vertex_count) {
+    if (bone_count != d->deformer->rig().skeleton.bone_count())
+        return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
+                                         std::to_string(d->deformer->rig().skeleton.bone_count()));
+    if (vertex_count != d->deformer->vertex_count())
+        return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) + " differs from the binding's " +
+                                         std::to_string(d->deformer->vertex_count()));
+    return SD_OK;
+}
+
+}  // namespace
+
 sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count, float* out_positions) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
-        if (bone_count != d->deformer->rig().skeleton.bone_count())
-            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
-                                             std::to_string(d->deformer->rig().skeleton.bone_count()));
-        if (vertex_count != d->deformer->vertex_count())
-            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
-                                             " differs from the binding's " +
-                                             std::to_string(d->deformer->vertex_count()));
+        if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
         d->deformer->deform(pose, out_positions);
         return SD_OK;
     });
@@ -71,13 +80,7 @@ sd_status sd_deform_frames(sd_deformer* d, int32_t bone_count, const float* pose
                            float* out_positions, float* out_frames) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d && pose && out_positions && out_frames, "deformer, pose, out_positions or out_frames is NULL");
-        if (bone_count != d->deformer->rig().skeleton.bone_count())
-            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
-                                             std::to_string(d->deformer->rig().skeleton.bone_count()));
-        if (vertex_count != d->deformer->vertex_count())
-            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
-                                             " differs from the binding's " +
-                                             std::to_string(d->deformer->vertex_count()));
+        if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
         d->deformer->deform_frames(pose, out_positions, out_frames);
         return SD_OK;
     });
