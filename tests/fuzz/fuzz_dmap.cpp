@@ -2,6 +2,7 @@
 // blob the fuzzer may damage, any grid, then points bound through it; a binding blob it
 // returns must load in libsweepdeform and deform.
 #include "fuzz_fixture.h"
+#include "sweepdeform/sweepdeform_dmap.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     static const sdfuzz::Arm arm;
@@ -32,20 +33,22 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         pts[3 * i + 1] = raw ? in.take<float>() : in.take<int8_t>() / 1000.0f;
         pts[3 * i + 2] = raw ? in.take<float>() : in.take<int8_t>() / 1000.0f;
     }
-    sd_dmap_blob* out = nullptr;
+    sd_dmap_binding* out = nullptr;
     int32_t snapped = 0;
     if (sd_dmap_bind(map, N, pts.data(), in.take<float>(), &snapped, &out) == SD_OK) {
-        int64_t n = 0;
-        const uint8_t* bytes = sd_dmap_blob_data(out, &n);
+        int64_t n = 0;  // the blob: size query, then fill
+        if (sd_dmap_binding_serialize(out, nullptr, 0, &n) != SD_OK) __builtin_trap();
+        std::vector<uint8_t> bytes(static_cast<size_t>(n));
+        if (sd_dmap_binding_serialize(out, bytes.data(), n, &n) != SD_OK) __builtin_trap();
         sd_binding* b = nullptr;
-        if (sd_binding_deserialize(bytes, n, &b) != SD_OK) __builtin_trap();  // its own blob must load
+        if (sd_binding_deserialize(bytes.data(), n, &b) != SD_OK) __builtin_trap();  // its own blob must load
         sd_deformer* d = nullptr;
         if (sd_deformer_create(arm.rig, b, &d) != SD_OK) __builtin_trap();
         std::vector<float> moved(pts.size());
         if (sd_deform(d, 3, arm.rest, N, moved.data()) == SD_OK) sdfuzz::require_finite(moved.data(), moved.size());
         sd_deformer_destroy(d);
         sd_binding_destroy(b);
-        sd_dmap_blob_destroy(out);
+        sd_dmap_binding_destroy(out);
     }
     sd_dmap_destroy(map);
     return 0;
