@@ -22,6 +22,10 @@ def _alert_box(layout, text, title=None):
         box.label(text=line)
 
 
+def _bound(obj):
+    return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+
+
 def _relevant(obj):
     return obj is not None and obj.type == 'MESH' and (
         modifier.find(obj) is not None or obj.sweep_deform.state != 'UNBOUND')
@@ -123,8 +127,7 @@ class _BoundSubPanel:
 
     @classmethod
     def poll(cls, context):
-        obj = context.object
-        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+        return _bound(context.object)
 
 
 class OBJECT_PT_sweep_deform_volumes(_BoundSubPanel, bpy.types.Panel):
@@ -331,8 +334,7 @@ class VIEW3D_PT_sweep_deform_keys(bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        obj = context.object
-        return _relevant(obj) and obj.sweep_deform.state == 'BOUND'
+        return _bound(context.object)
 
     def draw(self, context):
         draw_key_editing(self.layout, context, context.object, compact=True)
