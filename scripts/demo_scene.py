@@ -421,13 +421,6 @@ def evaluated_positions(obj, depsgraph):
     return co.reshape(-1, 3)
 
 
-def rest_triangles(mesh):
-    mesh.calc_loop_triangles()
-    tris = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-    mesh.loop_triangles.foreach_get("vertices", tris)
-    return tris.reshape(-1, 3)
-
-
 def chains_from_report(body):
     """The fitted chains (kind, bone names, end bone) from the binding's report."""
     try:
@@ -612,6 +605,7 @@ def main():
     arm, body = load_character(os.path.abspath(args.character), args.action)
     install.install(args.zip)
     from bl_ext.user_default.sweep_deform.core import native  # noqa: E402 (after install)
+    from bl_ext.user_default.sweep_deform.blender import mesh_data  # noqa: E402 (after install)
 
     scene = bpy.context.scene
     action = arm.animation_data.action
@@ -634,7 +628,7 @@ def main():
     chains = chains_from_report(next(c for c in columns if c["key"] in SWEEP_METHODS)["body"])
     if not chains:
         sys.exit("demo: the fitting found no chains; see the Sweep Deform panel's message")
-    tris = rest_triangles(body.data)
+    tris = mesh_data.triangles(body.data)
     dom_names = dominant_bone_names(body)
     limbs = limb_volumes(limb_regions(dom_names, chains), tris)
     print(f"demo: {len(body.data.vertices)} vertices, chains {[c['name'] for c in chains]}", flush=True)
