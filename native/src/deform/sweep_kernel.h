@@ -5,11 +5,15 @@
 // that into long loops over structure-of-arrays with the half-span's coefficients held
 // constant, which the compiler vectorises; a second pass sums each vertex's contributions
 // and its bone influences in a fixed order (results independent of the thread count).
+// A vertex with more than one influence (two sweeps, or a sweep and a bone) is blended as
+// rigid frames (deform/frame_blend.h); its influences sit in batches of their own that also
+// give each influence's rotation, so vertices inside one sweep pay nothing for it.
 #pragma once
 
 #include "bind/bind.h"
 #include "deform/linear_blend_skinning.h"
 
+#include <array>
 #include <cstdint>
 #include <vector>
 
@@ -28,18 +32,36 @@ public:
     SweepKernel() = default;
     /// @param span_base  first span of each sweep in the frame's half-span array (which holds
     ///                   2 entries per span: halves u < 0.5 and u >= 0.5)
-    SweepKernel(const Binding& binding, const std::vector<int>& span_base);
+    /// @param rest_inverse  per sweep influence (the binding's order): Q_rest(u)^-1, x y z w
+    /// @param point_sweep, point_bone  per sweep / bone influence (the binding's order): it
+    ///                      joins the vertex as a point (convex combination), not as a frame
+    SweepKernel(const Binding& binding, const std::vector<int>& span_base,
+                const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<uint8_t>& point_sweep,
+                const std::vector<uint8_t>& point_bone);
 
-    /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v], for every vertex (#V*3).
-    void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const Binding& binding, float* out);
+    /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v] for a vertex of one influence, the
+    /// rigid-frame blend of the same for a vertex of several (#V*3).
+    /// @param bone_rotations  per bone, the unit rotation of M_b (x y z w)
+    /// @param rotations       optional, #V*4: each blended vertex's rotation (others untouched)
+    void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const float* bone_rotations,
+             const Binding& binding, float* out, float* rotations = nullptr);
+
+    /// The weight of vertex v's influences blended as frames (0: all blended as points).
+    float frame_share(int v) const { return row_blends_[v]; }
 
 private:
     struct Batch {
         int32_t half_span, begin, end;
+        bool frames;  // influences of vertices blended as rigid frames
     };
     std::vector<Batch> batches_;                        // ranges of one half-span, <= kBatch long
     std::vector<float> u_, w_, x_, y_, z_, cos_, sin_;  // influences sorted by half-span
+    std::vector<float> rx_, ry_, rz_, rw_;              // Q_rest(u)^-1 (frame-blended slots)
     std::vector<float> px_, py_, pz_;                   // per-frame weighted contributions
+                                                        // (frame-blended slots: unweighted)
+    std::vector<float> qx_, qy_, qz_, qw_;              // per-frame rotation (frame-blended)
+    std::vector<float> row_blends_;                     // per vertex: its frame share
+    std::vector<uint8_t> point_slot_, point_bone_;      // joins as a point (sorted slot / bone inf.)
     std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
 };
 

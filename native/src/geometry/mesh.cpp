@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <tuple>
 
 namespace sd::fit {
 
@@ -108,6 +109,8 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
             ++stats_.components;
     }
 
+    weld_rings();
+
     // The half-edge structure for plane cuts.
     OpenMeshTri& m = halfedge_->mesh;
     std::vector<int32_t>& input = halfedge_->input_vertex;
@@ -136,6 +139,43 @@ FitMesh::FitMesh(int V, const float* positions, int T, const int32_t* triangles)
     }
     for (auto e : m.edges())
         if (e.is_boundary()) ++stats_.boundary_edges;
+}
+
+void FitMesh::weld_rings() {
+    // Vertices at the same position (a mesh split at UV seams, as glTF files are) are one
+    // point of the skin: each gets the union of their rings, in representatives, so weights
+    // smoothed over the rings stay equal across a seam (on CesiumMan they differed by up to
+    // 0.31, which opened a 1.9 cm crack along the belt line at 90 degrees of hip flexion).
+    const int V = vertex_count();
+    std::vector<int32_t> order(V), rep(V);
+    std::iota(order.begin(), order.end(), 0);
+    const auto key = [&](int v) { return std::tie(positions_[v].x, positions_[v].y, positions_[v].z); };
+    std::sort(order.begin(), order.end(), [&](int a, int b) { return key(a) < key(b); });
+    bool any = false;
+    for (int i = 0; i < V; ++i) {
+        const int v = order[i];
+        const bool twin = i > 0 && positions_[order[i - 1]] == positions_[v];
+        rep[v] = twin ? rep[order[i - 1]] : v;
+        any = any || twin;
+    }
+    if (!any) return;
+    std::vector<std::vector<int32_t>> rings(V);
+    for (int v = 0; v < V; ++v)
+        for (int i = ring_offsets_[v]; i < ring_offsets_[v + 1]; ++i)
+            if (rep[ring_[i]] != rep[v]) rings[rep[v]].push_back(rep[ring_[i]]);
+    for (auto& r : rings) {
+        std::sort(r.begin(), r.end());
+        r.erase(std::unique(r.begin(), r.end()), r.end());
+    }
+    std::vector<int32_t> offsets(V + 1, 0), welded;
+    welded.reserve(ring_.size());
+    for (int v = 0; v < V; ++v) {
+        const auto& r = rings[rep[v]];
+        welded.insert(welded.end(), r.begin(), r.end());
+        offsets[v + 1] = static_cast<int32_t>(welded.size());
+    }
+    ring_offsets_ = std::move(offsets);
+    ring_ = std::move(welded);
 }
 
 }  // namespace sd::fit

@@ -42,7 +42,8 @@ public:
     double diagonal() const { return glm::length(hi_ - lo_); }
     const MeshStats& stats() const { return stats_; }
 
-    /// One-ring neighbours of vertex v: ring_[ring_offsets_[v] .. ring_offsets_[v+1]).
+    /// One-ring neighbours of vertex v: ring_[ring_offsets_[v] .. ring_offsets_[v+1]), with
+    /// vertices at the same position welded (one ring each, in representatives).
     const std::vector<int32_t>& ring_offsets() const { return ring_offsets_; }
     const std::vector<int32_t>& ring() const { return ring_; }
 
@@ -55,6 +56,7 @@ private:
     dvec3 lo_{0.0}, hi_{0.0};
     MeshStats stats_;
     std::vector<int32_t> ring_offsets_, ring_;
+    void weld_rings();
     std::unique_ptr<HalfEdge> halfedge_;
 };
 

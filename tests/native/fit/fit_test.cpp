@@ -884,5 +884,46 @@ TEST(FitCharacterTiming, RefinedMakeHumanFitPlusBind) {
     EXPECT_EQ(binding.vertex_count(), V);
 }
 
+/// A mesh split at UV seams (CesiumMan as glTF stores it, and as Blender imports it): the
+/// copies of one point are one point of the skin, so they get the same sweep weights and
+/// move together at a bent hip (a crack opened along the belt line while the weights were
+/// smoothed over each copy's own ring).
+TEST(FitSeams, SplitVerticesMoveTogether) {
+    const std::string path = data_file(kCesiumMan.file);
+    REQUIRE_DATA(path);
+    const io::Character c = io::load_gltf_character(path);  // not welded
+    const Skeleton s = skeleton_of(c);
+    const int V = static_cast<int>(c.positions.size() / 3);
+    const fit::FitResult r = fit::fit_rig(character_input(c, s));
+    Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
+    const int thigh = bone_index(c, kCesiumMan.knee_l) >= 0 ? s.parents[bone_index(c, kCesiumMan.knee_l)] : -1;
+    ASSERT_GE(thigh, 0);
+    const dvec3 left = r.chains.frame.left;
+    std::vector<float> out(c.positions.size());
+    d.deform(bend_pose(c, s, thigh, left, glm::radians(90.0)).data(), out.data());
+    // Copies: vertices at bit-identical rest positions.
+    std::map<std::tuple<float, float, float>, int> first;
+    int pairs = 0;
+    double worst_weight = 0.0, worst_gap = 0.0;
+    const int slots = r.weights.sweep_slots;
+    for (int v = 0; v < V; ++v) {
+        const auto key = std::make_tuple(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
+        const auto [it, fresh] = first.emplace(key, v);
+        if (fresh) continue;
+        const int u = it->second;
+        ++pairs;
+        for (int i = 0; i < slots; ++i)
+            worst_weight = std::max(worst_weight, std::abs(double(r.weights.sweep_weights[v * slots + i]) -
+                                                           r.weights.sweep_weights[u * slots + i]));
+        worst_gap = std::max(worst_gap, glm::length(dvec3(out[3 * v] - out[3 * u], out[3 * v + 1] - out[3 * u + 1],
+                                                          out[3 * v + 2] - out[3 * u + 2])));
+    }
+    std::printf("CesiumMan: %d split copies; largest sweep weight difference %.3g, largest gap at hip 90 %.3g m\n",
+                pairs, worst_weight, worst_gap);
+    EXPECT_GT(pairs, 500);
+    EXPECT_LT(worst_weight, 1e-6);
+    EXPECT_LT(worst_gap, 1e-5 * diagonal(c.positions));
+}
+
 }  // namespace
 }  // namespace sd

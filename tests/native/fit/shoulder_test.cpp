@@ -204,6 +204,7 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
     if (const char* dir = std::getenv("SD_SHOULDER_DUMP")) {
         write_obj(std::string(dir) + "/" + label + "_sweep.obj", c, out);
         write_obj(std::string(dir) + "/" + label + "_lbs.obj", c, lbs);
+        write_obj(std::string(dir) + "/" + label + "_rest.obj", c, c.positions);
     }
     return f;
 }

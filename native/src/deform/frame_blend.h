@@ -1,0 +1,82 @@
+// Blending a vertex's influences as rigid frames (dual quaternions) rather than as points.
+//
+// Each influence of a vertex V (a sweep's moving ellipse, or a bone) moves V to p_i and turns
+// its neighbourhood by q_i; as a rigid map, x -> q_i (x - V) + p_i. Where the q_i agree (one
+// sweep, or the rest pose) blending these maps as dual quaternions gives Σ w_i p_i, the
+// paper's convex combination (Sect. 3.5). Where they differ — skin shared by the torso and a
+// limb at the hip and shoulder, or by a sweep and the bone beyond its end — the convex
+// combination of points cuts the chord between the p_i and loses volume as linear blend
+// skinning does, while the blended frame turns V along the arc, as Preserve Volume does.
+#pragma once
+
+#include <cmath>
+
+namespace sd {
+
+/// q = (x, y, z, w) rotates v: v + 2 w (q×v) + 2 q×(q×v) (q of unit length).
+inline void rotate_by_unit_quaternion(const float* q, const float* v, float* out) {
+    const float cx = q[1] * v[2] - q[2] * v[1], cy = q[2] * v[0] - q[0] * v[2], cz = q[0] * v[1] - q[1] * v[0];
+    const float ex = q[1] * cz - q[2] * cy, ey = q[2] * cx - q[0] * cz, ez = q[0] * cy - q[1] * cx;
+    out[0] = v[0] + 2.0f * (q[3] * cx + ex);
+    out[1] = v[1] + 2.0f * (q[3] * cy + ey);
+    out[2] = v[2] + 2.0f * (q[3] * cz + ez);
+}
+
+/// Accumulates w × (q, ½ t q) with t = p - q V, on q's hemisphere of the first frame added.
+class FrameBlend {
+public:
+    explicit FrameBlend(const float* rest) : v_{rest[0], rest[1], rest[2]} {}
+
+    /// @param q  unit rotation of the influence relative to rest; @param p  where it puts V
+    void add(float w, const float* q, const float* p) {
+        if (!started_) {
+            for (int i = 0; i < 4; ++i) ref_[i] = q[i];
+            started_ = true;
+        }
+        if (q[0] * ref_[0] + q[1] * ref_[1] + q[2] * ref_[2] + q[3] * ref_[3] < 0.0f) w = -w;
+        float qv[3];
+        rotate_by_unit_quaternion(q, v_, qv);
+        const float t[3] = {p[0] - qv[0], p[1] - qv[1], p[2] - qv[2]};
+        // ½ (t, 0) q
+        const float dx = 0.5f * (t[0] * q[3] + t[1] * q[2] - t[2] * q[1]);
+        const float dy = 0.5f * (-t[0] * q[2] + t[1] * q[3] + t[2] * q[0]);
+        const float dz = 0.5f * (t[0] * q[1] - t[1] * q[0] + t[2] * q[3]);
+        const float dw = -0.5f * (t[0] * q[0] + t[1] * q[1] + t[2] * q[2]);
+        for (int i = 0; i < 4; ++i) real_[i] += w * q[i];
+        dual_[0] += w * dx;
+        dual_[1] += w * dy;
+        dual_[2] += w * dz;
+        dual_[3] += w * dw;
+    }
+
+    /// Where the blended frame puts V, and (if wanted) its unit rotation. False if the frames
+    /// cancel (opposite rotations of equal weight): the caller keeps the convex combination.
+    bool apply(float* out, float* rotation = nullptr) const {
+        const float n2 = real_[0] * real_[0] + real_[1] * real_[1] + real_[2] * real_[2] + real_[3] * real_[3];
+        if (!(n2 > 1e-12f)) return false;
+        const float inv = 1.0f / std::sqrt(n2);
+        const float c[4] = {real_[0] * inv, real_[1] * inv, real_[2] * inv, real_[3] * inv};
+        const float e[4] = {dual_[0] * inv, dual_[1] * inv, dual_[2] * inv, dual_[3] * inv};
+        rotate_by_unit_quaternion(c, v_, out);
+        // t = 2 (e conj(c)).xyz, the translation of the normalised dual quaternion.
+        out[0] += 2.0f * (c[3] * e[0] - e[3] * c[0] + c[1] * e[2] - c[2] * e[1]);
+        out[1] += 2.0f * (c[3] * e[1] - e[3] * c[1] + c[2] * e[0] - c[0] * e[2]);
+        out[2] += 2.0f * (c[3] * e[2] - e[3] * c[2] + c[0] * e[1] - c[1] * e[0]);
+        if (rotation)
+            for (int i = 0; i < 4; ++i) rotation[i] = c[i];
+        return true;
+    }
+
+private:
+    float v_[3];
+    float ref_[4] = {0, 0, 0, 1};
+    float real_[4] = {0, 0, 0, 0};
+    float dual_[4] = {0, 0, 0, 0};
+    bool started_ = false;
+};
+
+/// The rotation of a bone's 3x3 linear part (columns normalised first: a scaled bone turns
+/// its skin as the unscaled one), as a unit quaternion (x, y, z, w).
+void bone_rotation(const float m[3][4], float* q);
+
+}  // namespace sd
