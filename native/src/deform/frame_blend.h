@@ -22,53 +22,56 @@ inline void rotate_by_unit_quaternion(const float* q, const float* v, float* out
     out[2] = v[2] + 2.0f * (q[3] * cz + ez);
 }
 
-/// Accumulates w × (q, ½ t q) with t = p - q V, on q's hemisphere of the first frame added.
+/// Accumulates w × (q, ½ t q), on q's hemisphere of the first frame added (w > 0). Dual quaternion
+/// blending does not depend on the coordinates it is done in, so it is done with V at the
+/// origin: the map x -> q (x - V) + p is then x -> q x + t with t = p - V, and where the
+/// blend puts V is its translation.
 class FrameBlend {
 public:
-    explicit FrameBlend(const float* rest) : v_{rest[0], rest[1], rest[2]} {}
-
-    /// @param q  unit rotation of the influence relative to rest; @param p  where it puts V
-    void add(float w, const float* q, const float* p) {
-        if (!started_) {
-            for (int i = 0; i < 4; ++i) ref_[i] = q[i];
-            started_ = true;
-        }
-        if (q[0] * ref_[0] + q[1] * ref_[1] + q[2] * ref_[2] + q[3] * ref_[3] < 0.0f) w = -w;
-        float qv[3];
-        rotate_by_unit_quaternion(q, v_, qv);
-        const float t[3] = {p[0] - qv[0], p[1] - qv[1], p[2] - qv[2]};
-        // ½ (t, 0) q
-        const float dx = 0.5f * (t[0] * q[3] + t[1] * q[2] - t[2] * q[1]);
-        const float dy = 0.5f * (-t[0] * q[2] + t[1] * q[3] + t[2] * q[0]);
-        const float dz = 0.5f * (t[0] * q[1] - t[1] * q[0] + t[2] * q[3]);
-        const float dw = -0.5f * (t[0] * q[0] + t[1] * q[1] + t[2] * q[2]);
-        for (int i = 0; i < 4; ++i) real_[i] += w * q[i];
-        dual_[0] += w * dx;
-        dual_[1] += w * dy;
-        dual_[2] += w * dz;
-        dual_[3] += w * dw;
+    /// @param q  unit rotation of the influence relative to rest; @param t  where it moves V
+    ///           (its position minus V's rest position)
+    void add(float w, const float* q, const float* t) {
+        const float h = 0.5f * w;  // ½ (t, 0) q, weighted
+        const float real[4] = {w * q[0], w * q[1], w * q[2], w * q[3]};
+        const float dual[4] = {
+            h * (t[0] * q[3] + t[1] * q[2] - t[2] * q[1]), h * (-t[0] * q[2] + t[1] * q[3] + t[2] * q[0]),
+            h * (t[0] * q[1] - t[1] * q[0] + t[2] * q[3]), -h * (t[0] * q[0] + t[1] * q[1] + t[2] * q[2])};
+        add_weighted(real, dual);
     }
 
-    /// Where the blended frame puts V, and (if wanted) its unit rotation. False if the frames
-    /// cancel (opposite rotations of equal weight): the caller keeps the convex combination.
-    bool apply(float* out, float* rotation = nullptr) const {
+    /// The same with w q and ½ w t q already formed (SweepKernel forms them vectorised).
+    void add_weighted(const float* real, const float* dual) {
+        if (!started_) {
+            for (int i = 0; i < 4; ++i) ref_[i] = real[i];
+            started_ = true;
+        }
+        const float sign =
+            real[0] * ref_[0] + real[1] * ref_[1] + real[2] * ref_[2] + real[3] * ref_[3] < 0.0f ? -1.0f : 1.0f;
+        for (int i = 0; i < 4; ++i) {
+            real_[i] += sign * real[i];
+            dual_[i] += sign * dual[i];
+        }
+    }
+
+    /// How far the blended frame moves V, and (if wanted) its unit rotation. False if the
+    /// frames cancel (opposite rotations of equal weight): the caller keeps the convex
+    /// combination.
+    bool apply(float* move, float* rotation = nullptr) const {
         const float n2 = real_[0] * real_[0] + real_[1] * real_[1] + real_[2] * real_[2] + real_[3] * real_[3];
         if (!(n2 > 1e-12f)) return false;
         const float inv = 1.0f / std::sqrt(n2);
         const float c[4] = {real_[0] * inv, real_[1] * inv, real_[2] * inv, real_[3] * inv};
         const float e[4] = {dual_[0] * inv, dual_[1] * inv, dual_[2] * inv, dual_[3] * inv};
-        rotate_by_unit_quaternion(c, v_, out);
-        // t = 2 (e conj(c)).xyz, the translation of the normalised dual quaternion.
-        out[0] += 2.0f * (c[3] * e[0] - e[3] * c[0] + c[1] * e[2] - c[2] * e[1]);
-        out[1] += 2.0f * (c[3] * e[1] - e[3] * c[1] + c[2] * e[0] - c[0] * e[2]);
-        out[2] += 2.0f * (c[3] * e[2] - e[3] * c[2] + c[0] * e[1] - c[1] * e[0]);
+        // 2 (e conj(c)).xyz, the translation of the normalised dual quaternion.
+        move[0] = 2.0f * (c[3] * e[0] - e[3] * c[0] + c[1] * e[2] - c[2] * e[1]);
+        move[1] = 2.0f * (c[3] * e[1] - e[3] * c[1] + c[2] * e[0] - c[0] * e[2]);
+        move[2] = 2.0f * (c[3] * e[2] - e[3] * c[2] + c[0] * e[1] - c[1] * e[0]);
         if (rotation)
             for (int i = 0; i < 4; ++i) rotation[i] = c[i];
         return true;
     }
 
 private:
-    float v_[3];
     float ref_[4] = {0, 0, 0, 1};
     float real_[4] = {0, 0, 0, 0};
     float dual_[4] = {0, 0, 0, 0};

@@ -41,38 +41,53 @@ void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const f
     }
 }
 
-/// Influences of frame-blended vertices: the unweighted position C(u) + R(u) l and the
-/// rotation R(u) R_rest(u)^-1 as a unit quaternion.
+/// Influences of frame-blended vertices: the weighted position w (C(u) + R(u) l), and the
+/// influence as a weighted dual quaternion about the vertex (frame_blend.h): w q and
+/// ½ w (p - V) q, with q = R(u) R_rest(u)^-1 as a unit quaternion. Flat and branch-free like
+/// evaluate_batch, so it vectorises too (sqrt without errno: -fno-math-errno).
 struct FrameSlots {
-    const float *u, *x, *y, *z, *cos, *sin, *rx, *ry, *rz, *rw;
-    float *px, *py, *pz, *qx, *qy, *qz, *qw;
+    const float* __restrict u, * __restrict w, * __restrict x, * __restrict y, * __restrict z, * __restrict cos, * __restrict sin, * __restrict rx, * __restrict ry, * __restrict rz, * __restrict rw, * __restrict vx, * __restrict vy, * __restrict vz;
+    float* __restrict px, * __restrict py, * __restrict pz, * __restrict qx, * __restrict qy, * __restrict qz, * __restrict qw, * __restrict dx, * __restrict dy, * __restrict dz, * __restrict dw;
 };
 
-void evaluate_frame_batch(const HalfSpanKernel& c, int32_t begin, int32_t end, const FrameSlots& f) {
+void evaluate_frame_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const FrameSlots& f) {
+    const HalfSpanKernel c = k;  // locals: no aliasing with the outputs
     for (int32_t i = begin; i < end; ++i) {
         const float u = f.u[i];
         const float da = c.da[0] + u * (c.da[1] + u * c.da[2]);
         const float db = c.db[0] + u * (c.db[1] + u * c.db[2]);
-        const float l[3] = {f.x[i] + da * f.cos[i], f.y[i] + db * f.sin[i], f.z[i]};
-        float q[4];
-        float n = 0.0f;
-        for (int k = 0; k < 4; ++k) {
-            q[k] = c.q0[k] + u * (c.q1[k] - c.q0[k]);
-            n += q[k] * q[k];
-        }
-        const float inv = 1.0f / std::sqrt(n);
-        for (float& k : q) k *= inv;
-        float rl[3];
-        rotate_by_unit_quaternion(q, l, rl);
-        f.px[i] = c.c[0][0] + u * (c.c[1][0] + u * (c.c[2][0] + u * c.c[3][0])) + rl[0];
-        f.py[i] = c.c[0][1] + u * (c.c[1][1] + u * (c.c[2][1] + u * c.c[3][1])) + rl[1];
-        f.pz[i] = c.c[0][2] + u * (c.c[1][2] + u * (c.c[2][2] + u * c.c[3][2])) + rl[2];
-        // q r, r = Q_rest(u)^-1
+        const float lx = f.x[i] + da * f.cos[i], ly = f.y[i] + db * f.sin[i], lz = f.z[i];
+        const float ax = c.q0[0] + u * (c.q1[0] - c.q0[0]);
+        const float ay = c.q0[1] + u * (c.q1[1] - c.q0[1]);
+        const float az = c.q0[2] + u * (c.q1[2] - c.q0[2]);
+        const float aw = c.q0[3] + u * (c.q1[3] - c.q0[3]);
+        const float n2 = ax * ax + ay * ay + az * az + aw * aw;
+        const float s = 2.0f / n2, inv = 1.0f / std::sqrt(n2);
+        const float cx = ay * lz - az * ly, cy = az * lx - ax * lz, cz = ax * ly - ay * lx;
+        const float ex = ay * cz - az * cy, ey = az * cx - ax * cz, ez = ax * cy - ay * cx;
+        const float pxv = c.c[0][0] + u * (c.c[1][0] + u * (c.c[2][0] + u * c.c[3][0])) + lx + s * (aw * cx + ex);
+        const float pyv = c.c[0][1] + u * (c.c[1][1] + u * (c.c[2][1] + u * c.c[3][1])) + ly + s * (aw * cy + ey);
+        const float pzv = c.c[0][2] + u * (c.c[1][2] + u * (c.c[2][2] + u * c.c[3][2])) + lz + s * (aw * cz + ez);
+        // w q, q = Q(u)/|Q(u)| r, r = Q_rest(u)^-1
+        const float w = f.w[i], wn = w * inv;
         const float rx = f.rx[i], ry = f.ry[i], rz = f.rz[i], rw = f.rw[i];
-        f.qx[i] = q[3] * rx + q[0] * rw + q[1] * rz - q[2] * ry;
-        f.qy[i] = q[3] * ry - q[0] * rz + q[1] * rw + q[2] * rx;
-        f.qz[i] = q[3] * rz + q[0] * ry - q[1] * rx + q[2] * rw;
-        f.qw[i] = q[3] * rw - q[0] * rx - q[1] * ry - q[2] * rz;
+        const float qx = wn * (aw * rx + ax * rw + ay * rz - az * ry);
+        const float qy = wn * (aw * ry - ax * rz + ay * rw + az * rx);
+        const float qz = wn * (aw * rz + ax * ry - ay * rx + az * rw);
+        const float qw = wn * (aw * rw - ax * rx - ay * ry - az * rz);
+        // ½ (t, 0) (w q), t = p - V
+        const float tx = 0.5f * (pxv - f.vx[i]), ty = 0.5f * (pyv - f.vy[i]), tz = 0.5f * (pzv - f.vz[i]);
+        f.dx[i] = tx * qw + ty * qz - tz * qy;
+        f.dy[i] = -tx * qz + ty * qw + tz * qx;
+        f.dz[i] = tx * qy - ty * qx + tz * qw;
+        f.dw[i] = -(tx * qx + ty * qy + tz * qz);
+        f.qx[i] = qx;
+        f.qy[i] = qy;
+        f.qz[i] = qz;
+        f.qw[i] = qw;
+        f.px[i] = w * pxv;
+        f.py[i] = w * pyv;
+        f.pz[i] = w * pzv;
     }
 }
 
@@ -100,18 +115,22 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         row_blends_[v] = blends ? share : 0.0f;
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) blended[i] = blends;
     }
-    // Sorted by (blended as frames, half-span): each batch is one kind and one half-span.
+    // Sorted by (blended as frames, half-span): each batch is one kind and one half-span,
+    // with its coefficients held constant, so both kinds of batch vectorise.
     std::vector<int32_t> half(n);
-    for (size_t i = 0; i < n; ++i)
-        half[i] = 2 * (span_base[inf[i].sweep] + inf[i].span) + (inf[i].u < 0.5f ? 0 : 1) + (blended[i] ? 1 << 29 : 0);
+    for (size_t i = 0; i < n; ++i) half[i] = 2 * (span_base[inf[i].sweep] + inf[i].span) + (inf[i].u < 0.5f ? 0 : 1);
     std::vector<uint32_t> order(n);
     std::iota(order.begin(), order.end(), 0u);
-    std::stable_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t c) { return half[a] < half[c]; });
+    std::stable_sort(order.begin(), order.end(),
+                     [&](uint32_t a, uint32_t c) { return blended[a] != blended[c] ? blended[c] : half[a] < half[c]; });
 
     std::vector<uint32_t> slot_of(n);
-    for (auto* v :
-         {&u_, &w_, &x_, &y_, &z_, &cos_, &sin_, &px_, &py_, &pz_, &rx_, &ry_, &rz_, &rw_, &qx_, &qy_, &qz_, &qw_})
+    for (auto* v : {&u_,  &w_,  &x_,  &y_,  &z_,  &cos_, &sin_, &px_, &py_, &pz_, &rx_, &ry_, &rz_,
+                    &rw_, &qx_, &qy_, &qz_, &qw_, &dx_,  &dy_,  &dz_, &dw_, &vx_, &vy_, &vz_})
         v->resize(n);
+    std::vector<int32_t> vertex_of(n);
+    for (int v = 0; v < V; ++v)
+        for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) vertex_of[i] = v;
     point_slot_.resize(n);
     for (size_t s = 0; s < n; ++s) {
         const SweepInfluence& f = inf[order[s]];
@@ -124,6 +143,10 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         cos_[s] = f.cos_theta;
         sin_[s] = f.sin_theta;
         point_slot_[s] = point_sweep[order[s]];
+        const int vert = vertex_of[order[s]];
+        vx_[s] = b.rest_positions[3 * static_cast<size_t>(vert)];
+        vy_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 1];
+        vz_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 2];
         const auto& r = rest_inverse[order[s]];
         rx_[s] = r[0];
         ry_[s] = r[1];
@@ -132,9 +155,10 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     }
     for (size_t s = 0; s < n;) {
         const int32_t h = half[order[s]];
+        const bool frames = blended[order[s]];
         size_t e = s;
-        while (e < n && half[order[e]] == h && e - s < static_cast<size_t>(kBatch)) ++e;
-        batches_.push_back({h & ((1 << 29) - 1), static_cast<int32_t>(s), static_cast<int32_t>(e), h >= (1 << 29)});
+        while (e < n && blended[order[e]] == frames && half[order[e]] == h && e - s < static_cast<size_t>(kBatch)) ++e;
+        batches_.push_back({h, static_cast<int32_t>(s), static_cast<int32_t>(e), frames});
         s = e;
     }
     row_offsets_ = b.sweep_offsets;
@@ -144,9 +168,10 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
 
 void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const float* bone_rotations,
                       const Binding& b, float* out, float* rotations) {
-    const FrameSlots slots{u_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(), sin_.data(),
-                           rx_.data(), ry_.data(), rz_.data(), rw_.data(), px_.data(),  py_.data(),
-                           pz_.data(), qx_.data(), qy_.data(), qz_.data(), qw_.data()};
+    const FrameSlots slots{u_.data(),  w_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(), sin_.data(),
+                           rx_.data(), ry_.data(), rz_.data(), rw_.data(), vx_.data(), vy_.data(),  vz_.data(),
+                           px_.data(), py_.data(), pz_.data(), qx_.data(), qy_.data(), qz_.data(),  qw_.data(),
+                           dx_.data(), dy_.data(), dz_.data(), dw_.data()};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches_.size()), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Batch& bt = batches_[i];
@@ -163,14 +188,20 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             float p[3] = {0.0f, 0.0f, 0.0f};
             if (row_blends_[v] > 0.0f) {
                 // Frames blended among themselves, weighted by their share; points added.
-                FrameBlend blend(rest + 3 * v);
+                FrameBlend blend;
+                const float* x = rest + 3 * v;
                 float framed_lin[3] = {0.0f, 0.0f, 0.0f};
                 for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                     const uint32_t s = rows_[i];
-                    const float q[4] = {qx_[s], qy_[s], qz_[s], qw_[s]}, at[3] = {px_[s], py_[s], pz_[s]};
                     float* sum = point_slot_[s] ? p : framed_lin;
-                    for (int k = 0; k < 3; ++k) sum[k] += w_[s] * at[k];
-                    if (!point_slot_[s]) blend.add(w_[s], q, at);
+                    sum[0] += px_[s];
+                    sum[1] += py_[s];
+                    sum[2] += pz_[s];
+                    if (!point_slot_[s]) {
+                        const float real[4] = {qx_[s], qy_[s], qz_[s], qw_[s]},
+                                    dual[4] = {dx_[s], dy_[s], dz_[s], dw_[s]};
+                        blend.add_weighted(real, dual);
+                    }
                 }
                 for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {
                     const BoneInfluence& in = b.bone_influences[i];
@@ -178,12 +209,15 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                     bones[in.bone].apply_add(1.0f, rest + 3 * v, at);
                     float* sum = point_bone_[i] ? p : framed_lin;
                     for (int k = 0; k < 3; ++k) sum[k] += in.weight * at[k];
-                    if (!point_bone_[i]) blend.add(in.weight, bone_rotations + 4 * in.bone, at);
+                    if (!point_bone_[i]) {
+                        const float t[3] = {at[0] - x[0], at[1] - x[1], at[2] - x[2]};
+                        blend.add(in.weight, bone_rotations + 4 * in.bone, t);
+                    }
                 }
-                float q[4] = {0.0f, 0.0f, 0.0f, 1.0f}, framed[3];
+                float q[4] = {0.0f, 0.0f, 0.0f, 1.0f}, move[3];
                 const float share = row_blends_[v];
-                if (blend.apply(framed, q))
-                    for (int k = 0; k < 3; ++k) p[k] += share * framed[k];
+                if (blend.apply(move, q))
+                    for (int k = 0; k < 3; ++k) p[k] += share * (x[k] + move[k]);
                 else  // the frames cancel: their convex combination
                     for (int k = 0; k < 3; ++k) p[k] += framed_lin[k];
                 if (rotations)

@@ -58,8 +58,9 @@ private:
     std::vector<float> u_, w_, x_, y_, z_, cos_, sin_;  // influences sorted by half-span
     std::vector<float> rx_, ry_, rz_, rw_;              // Q_rest(u)^-1 (frame-blended slots)
     std::vector<float> px_, py_, pz_;                   // per-frame weighted contributions
-                                                        // (frame-blended slots: unweighted)
-    std::vector<float> qx_, qy_, qz_, qw_;              // per-frame rotation (frame-blended)
+    std::vector<float> qx_, qy_, qz_, qw_;              // per-frame w q (frame-blended slots)
+    std::vector<float> dx_, dy_, dz_, dw_;              // per-frame ½ w (p - V) q (frame-blended)
+    std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
     std::vector<float> row_blends_;                     // per vertex: its frame share
     std::vector<uint8_t> point_slot_, point_bone_;      // joins as a point (sorted slot / bone inf.)
     std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
