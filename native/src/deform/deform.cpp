@@ -2,6 +2,7 @@
 
 #include "deform/frame_blend.h"
 #include "rig/key_pose.h"
+#include "rig/trunk.h"
 
 #include <algorithm>
 #include <cmath>
@@ -86,24 +87,12 @@ void point_influences(const Rig& rig, const Binding& b, std::vector<uint8_t>& po
     const size_t S = rig.sweeps.size();
     point_sweep.assign(b.sweep_influences.size(), 0);
     point_bone.assign(b.bone_influences.size(), 0);
-    dvec3 trunk_axis(0.0);
-    for (const Sweep& s : rig.sweeps)
-        if (!s.keys.front().is_joint_key() && s.key_count() >= 2) {
-            trunk_axis = s.keys.back().center - s.keys.front().center;
-            break;
-        }
-    if (!(glm::length(trunk_axis) > 0.0)) return;
-    trunk_axis = glm::normalize(trunk_axis);
-    std::vector<uint8_t> sideways(S, 0);
+    const std::vector<char> sideways = sweeps_leaving_trunk_sideways(rig);
     std::vector<uint8_t> arm_bone(rig.skeleton.bone_count(), 0);
-    for (size_t si = 0; si < S; ++si) {
-        const Sweep& s = rig.sweeps[si];
-        const KeyEllipse& k = s.keys.front();
-        sideways[si] = k.is_joint_key() && std::abs(glm::dot(k.normal(), trunk_axis)) < std::cos(glm::radians(45.0));
+    for (size_t si = 0; si < S; ++si)
         if (sideways[si])
-            for (const KeyEllipse& e : s.keys)
+            for (const KeyEllipse& e : rig.sweeps[si].keys)
                 if (e.bone >= 0 && e.bone < rig.skeleton.bone_count()) arm_bone[e.bone] = 1;
-    }
     for (int v = 0; v < b.vertex_count(); ++v) {
         bool arm = false, other = false;
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i)

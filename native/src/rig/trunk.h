@@ -1,0 +1,17 @@
+// Which sweeps leave the body's trunk sideways (the arms, at the shoulders) and which
+// continue it along its axis (the legs, the neck): skin shared with the first kind is a web
+// (the armpit), skin shared with the second is filled (the buttock, the base of the neck).
+#pragma once
+
+#include "rig/rig.h"
+
+#include <vector>
+
+namespace sd {
+
+/// Per sweep: its first key is a joint whose normal lies more than 45 degrees off the trunk's
+/// axis. The trunk is the first sweep that starts free (its first key is no joint); a rig
+/// without one has no sideways sweep.
+std::vector<char> sweeps_leaving_trunk_sideways(const Rig& rig);
+
+}  // namespace sd
