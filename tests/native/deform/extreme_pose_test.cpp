@@ -14,6 +14,8 @@
 // The guard: no frame's largest ratio above the add-on's bound (RATIO_LIMIT = 3). A longer search
 // on demand: SWEEPDEFORM_EXTREME_FRAMES (frames per run, default 200) and
 // SWEEPDEFORM_EXTREME_SEEDS (seeds 1..N, default 1); every run prints its five worst frames.
+// SWEEPDEFORM_EXTREME_CHARACTER=FILE.glb adds a character of your own (e.g. the built-in
+// blend_fixtures characters exported to glTF), welded if SWEEPDEFORM_EXTREME_WELD is set.
 // SWEEPDEFORM_EXTREME_DUMP=DIR writes each run's worst pose there in the command-line tool's
 // pose-file format (sweepdeform CHARACTER --pose-file FILE -o OUT.obj shows it).
 #include "sweepdeform/sweepdeform.h"
@@ -497,6 +499,31 @@ struct Case {
     bool weld;
 };
 
+/// The search on one character, every mode, volume control on and off.
+void search(const std::string& path, bool weld, const char* name) {
+    Bound s;
+    ASSERT_NO_FATAL_FAILURE(fit_and_bind(path, weld, s));
+    std::printf("%s: %d vertices, %d bones, %d sweeps, diagonal %.3f\n", name, s.V, s.B, s.S, s.diagonal);
+    const int frames = env_int("SWEEPDEFORM_EXTREME_FRAMES", 200);
+    const int seeds = env_int("SWEEPDEFORM_EXTREME_SEEDS", 1);
+    for (uint64_t seed = 1; seed <= static_cast<uint64_t>(seeds); ++seed)
+        for (Mode mode : {Mode::Euler, Mode::Axis, Mode::Haar})
+            for (bool volume : {true, false}) {
+                const RunSummary r = run(s, name, mode, seed, volume, frames);
+                EXPECT_LE(r.worst.ratio, kRatioLimit)
+                    << name << " " << mode_name(mode) << " seed " << seed << " volume " << volume << ": frame "
+                    << r.worst.frame << ", vertex " << r.worst.vertex << " is " << r.worst.ratio
+                    << "x its rest distance from its bones (" << r.worst.to_lbs << " m from linear blend skinning)";
+            }
+}
+
+TEST(ExtremePoses, CharacterOfYourOwn) {
+    const char* path = std::getenv("SWEEPDEFORM_EXTREME_CHARACTER");
+    if (!path || !*path) GTEST_SKIP() << "SWEEPDEFORM_EXTREME_CHARACTER not set";
+    const std::string file(path);
+    search(file, std::getenv("SWEEPDEFORM_EXTREME_WELD") != nullptr, file.substr(file.rfind('/') + 1).c_str());
+}
+
 void PrintTo(const Case& c, std::ostream* os) { *os << c.file << (c.weld ? " (welded)" : ""); }
 
 class ExtremePoses : public ::testing::TestWithParam<Case> {};
@@ -504,20 +531,7 @@ class ExtremePoses : public ::testing::TestWithParam<Case> {};
 TEST_P(ExtremePoses, NoFrameBeyondTheBound) {
     const std::string path = data_file(GetParam().file);
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
-    Bound s;
-    ASSERT_NO_FATAL_FAILURE(fit_and_bind(path, GetParam().weld, s));
-    std::printf("%s: %d vertices, %d bones, %d sweeps, diagonal %.3f\n", GetParam().file, s.V, s.B, s.S, s.diagonal);
-    const int frames = env_int("SWEEPDEFORM_EXTREME_FRAMES", 200);
-    const int seeds = env_int("SWEEPDEFORM_EXTREME_SEEDS", 1);
-    for (uint64_t seed = 1; seed <= static_cast<uint64_t>(seeds); ++seed)
-        for (Mode mode : {Mode::Euler, Mode::Axis, Mode::Haar})
-            for (bool volume : {true, false}) {
-                const RunSummary r = run(s, GetParam().file, mode, seed, volume, frames);
-                EXPECT_LE(r.worst.ratio, kRatioLimit)
-                    << GetParam().file << " " << mode_name(mode) << " seed " << seed << " volume " << volume
-                    << ": frame " << r.worst.frame << ", vertex " << r.worst.vertex << " is " << r.worst.ratio
-                    << "x its rest distance from its bones (" << r.worst.to_lbs << " m from linear blend skinning)";
-            }
+    search(path, GetParam().weld, GetParam().file);
 }
 
 INSTANTIATE_TEST_SUITE_P(Humans, ExtremePoses,
