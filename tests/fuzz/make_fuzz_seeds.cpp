@@ -1,10 +1,13 @@
 // Writes the seed corpora of every fuzz target from the native tests' synthetic arm (the
 // cases the unit tests use: rest, bent 90 and 170 degrees, the ring mesh, its fitting input):
 //   make_fuzz_seeds <corpus dir>      (scripts/fuzz runs it; the output is in the repository)
+// The readers' seeds (BVH, OBJ/PLY/OFF/XYZ, glTF) are small files of each format written here.
 // Each seed follows its target's byte layout (sdfuzz::Bytes), so the fuzzer starts from
 // inputs that reach deep into the code instead of failing the first check.
 #include "fuzz_fixture.h"
 
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -159,6 +162,144 @@ void dmap_seeds() {
     }
 }
 
+/// A small skinned glTF: buffer views and accessors over one buffer, which goes into a .glb's
+/// BIN chunk or a .gltf's data: URI.
+class Gltf {
+public:
+    template <class T>
+    int add(const std::vector<T>& values, int component_type, const char* type, size_t count, bool normalized = false) {
+        while (data_.size() % 4) data_.push_back(0);
+        const size_t offset = data_.size();
+        const auto* bytes = reinterpret_cast<const uint8_t*>(values.data());
+        data_.insert(data_.end(), bytes, bytes + values.size() * sizeof(T));
+        const int index = count_++;
+        views_ += std::string(index ? "," : "") + "{\"buffer\":0,\"byteOffset\":" + std::to_string(offset) +
+                  ",\"byteLength\":" + std::to_string(values.size() * sizeof(T)) + "}";
+        accessors_ += std::string(index ? "," : "") + "{\"bufferView\":" + std::to_string(index) +
+                      ",\"componentType\":" + std::to_string(component_type) + ",\"count\":" + std::to_string(count) +
+                      ",\"type\":\"" + type + "\"" + (normalized ? ",\"normalized\":true" : "") + "}";
+        return index;
+    }
+    std::string json(const std::string& rest, bool embedded) const {
+        std::string buffer = "{\"byteLength\":" + std::to_string(data_.size());
+        if (embedded) {
+            static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+            buffer += ",\"uri\":\"data:application/octet-stream;base64,";
+            for (size_t i = 0; i < data_.size(); i += 3) {
+                uint32_t n = uint32_t(data_[i]) << 16;
+                if (i + 1 < data_.size()) n |= uint32_t(data_[i + 1]) << 8;
+                if (i + 2 < data_.size()) n |= data_[i + 2];
+                for (size_t k = 0; k < 4; ++k) buffer += i + k <= data_.size() ? abc[(n >> (18 - 6 * k)) & 63] : '=';
+            }
+            buffer += "\"";
+        }
+        return "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[" + buffer + "}],\"bufferViews\":[" + views_ +
+               "],\"accessors\":[" + accessors_ + "]," + rest + "}";
+    }
+    /// glTF 2.0 binary: 12-byte header, the JSON chunk (padded with spaces), the BIN chunk.
+    std::vector<uint8_t> glb(const std::string& rest) const {
+        std::string text = json(rest, false);
+        while (text.size() % 4) text += ' ';
+        std::vector<uint8_t> bin = data_;
+        while (bin.size() % 4) bin.push_back(0);
+        Out o;
+        o.text("glTF").put<uint32_t>(2).put<uint32_t>(static_cast<uint32_t>(12 + 8 + text.size() + 8 + bin.size()));
+        o.put<uint32_t>(static_cast<uint32_t>(text.size())).put<uint32_t>(0x4E4F534Au).text(text);
+        o.put<uint32_t>(static_cast<uint32_t>(bin.size())).put<uint32_t>(0x004E4942u);
+        o.b.insert(o.b.end(), bin.begin(), bin.end());
+        return o.b;
+    }
+
+private:
+    std::vector<uint8_t> data_;
+    std::string views_, accessors_;
+    int count_ = 0;
+};
+
+/// A closed square tube 1 unit long along +Y (three rings of four vertices, end caps) skinned
+/// to a hip and a knee, with an animation using every interpolation. Variants: the skin's
+/// joints listed child first (the loader reorders them), the knee's rest as a matrix, u16
+/// joints with normalized u16 weights, a seam vertex to weld.
+std::vector<uint8_t> tube_gltf(bool binary, bool child_first, bool knee_matrix, bool u16_skin, bool seam) {
+    std::vector<float> pos;
+    for (int r = 0; r < 3; ++r)
+        for (int s = 0; s < 4; ++s)
+            pos.insert(pos.end(), {0.1f * std::cos(1.5708f * s), 0.5f * r, 0.1f * std::sin(1.5708f * s)});
+    std::vector<uint16_t> idx;
+    for (int r = 0; r < 2; ++r)
+        for (int s = 0; s < 4; ++s) {
+            const auto a = static_cast<uint16_t>(4 * r + s), b = static_cast<uint16_t>(4 * r + (s + 1) % 4);
+            idx.insert(idx.end(), {a, static_cast<uint16_t>(b + 4), b, a, static_cast<uint16_t>(a + 4),
+                                   static_cast<uint16_t>(b + 4)});
+        }
+    idx.insert(idx.end(), {0, 1, 2, 0, 2, 3, 8, 10, 9, 8, 11, 10});
+    if (seam) {  // vertex 12 duplicates vertex 0 and takes its place in the first triangle
+        pos.insert(pos.end(), {pos[0], pos[1], pos[2]});
+        idx[0] = 12;
+    }
+    const size_t V = pos.size() / 3;
+    const int hip = child_first ? 1 : 0, knee = 1 - hip;  // skin joint indices
+    std::vector<float> weights;                           // per vertex: hip weight, knee weight
+    for (size_t v = 0; v < V; ++v) {
+        const int ring = v == 12 ? 0 : static_cast<int>(v) / 4;
+        const float k = 0.5f * ring;
+        weights.insert(weights.end(), {1.0f - k, k});
+    }
+    Gltf g;
+    const int a_pos = g.add(pos, 5126, "VEC3", V);
+    const int a_idx = g.add(idx, 5123, "SCALAR", idx.size());
+    int a_jnt, a_wgt;
+    if (u16_skin) {
+        std::vector<uint16_t> j, w;
+        for (size_t v = 0; v < V; ++v) {
+            j.insert(j.end(), {static_cast<uint16_t>(hip), static_cast<uint16_t>(knee), 0, 0});
+            w.insert(w.end(), {static_cast<uint16_t>(65535 * weights[2 * v]),
+                               static_cast<uint16_t>(65535 * weights[2 * v + 1]), 0, 0});
+        }
+        a_jnt = g.add(j, 5123, "VEC4", V);
+        a_wgt = g.add(w, 5123, "VEC4", V, true);
+    } else {
+        std::vector<uint8_t> j;
+        std::vector<float> w;
+        for (size_t v = 0; v < V; ++v) {
+            j.insert(j.end(), {static_cast<uint8_t>(hip), static_cast<uint8_t>(knee), 0, 0});
+            w.insert(w.end(), {weights[2 * v], weights[2 * v + 1], 0.0f, 0.0f});
+        }
+        a_jnt = g.add(j, 5121, "VEC4", V);
+        a_wgt = g.add(w, 5126, "VEC4", V);
+    }
+    // Column-major inverse bind matrices in skin joint order: hip at the origin, knee at y = 0.5.
+    std::vector<float> ibm;
+    for (int j = 0; j < 2; ++j)
+        ibm.insert(ibm.end(), {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, j == knee ? -0.5f : 0, 0, 1});
+    const int a_ibm = g.add(ibm, 5126, "MAT4", 2);
+    const int a_time = g.add(std::vector<float>{0.0f, 1.0f}, 5126, "SCALAR", 2);
+    const int a_rot = g.add(std::vector<float>{0, 0, 0, 1, 0.3826834f, 0, 0, 0.9238795f}, 5126, "VEC4", 2);
+    const int a_move = g.add(std::vector<float>{0, 0, 0, 0, 0.1f, 0}, 5126, "VEC3", 2);
+    const int a_scale =
+        g.add(std::vector<float>{0, 0, 0, 1, 1, 1, 0, 0.5f, 0, 0, 0, 0, 1, 1.2f, 1, 0, 0, 0}, 5126, "VEC3", 6);
+    const std::string knee_rest =
+        knee_matrix ? "\"matrix\":[1,0,0,0,0,1,0,0,0,0,1,0,0,0.5,0,1]" : "\"translation\":[0,0.5,0]";
+    const auto n = [](int i) { return std::to_string(i); };
+    const std::string rest =
+        "\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+        "\"nodes\":[{\"name\":\"Armature\",\"children\":[1,2]},{\"name\":\"leg\",\"mesh\":0,\"skin\":0},"
+        "{\"name\":\"hip\",\"children\":[3]},{\"name\":\"knee\"," +
+        knee_rest + "}],\"skins\":[{\"joints\":" + (child_first ? "[3,2]" : "[2,3]") +
+        ",\"inverseBindMatrices\":" + n(a_ibm) +
+        "}],\"meshes\":[{\"name\":\"leg\",\"primitives\":[{\"attributes\":{\"POSITION\":" + n(a_pos) +
+        ",\"JOINTS_0\":" + n(a_jnt) + ",\"WEIGHTS_0\":" + n(a_wgt) + "},\"indices\":" + n(a_idx) +
+        ",\"mode\":4}]}],\"animations\":[{\"name\":\"bend\",\"samplers\":[{\"input\":" + n(a_time) +
+        ",\"output\":" + n(a_rot) + "},{\"input\":" + n(a_time) + ",\"output\":" + n(a_move) +
+        ",\"interpolation\":\"STEP\"},{\"input\":" + n(a_time) + ",\"output\":" + n(a_scale) +
+        ",\"interpolation\":\"CUBICSPLINE\"}],\"channels\":[{\"sampler\":0,\"target\":{\"node\":3,\"path\":"
+        "\"rotation\"}},{\"sampler\":1,\"target\":{\"node\":2,\"path\":\"translation\"}},{\"sampler\":2,"
+        "\"target\":{\"node\":3,\"path\":\"scale\"}}]}]";
+    if (binary) return g.glb(rest);
+    const std::string text = g.json(rest, true);
+    return std::vector<uint8_t>(text.begin(), text.end());
+}
+
 void reader_seeds() {
     Out bvh;
     bvh.text(
@@ -184,6 +325,16 @@ void reader_seeds() {
     write("fuzz_mesh_file", "quad.off",
           Out().put<uint8_t>(2).text("OFF\n4 1 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n").b);
     write("fuzz_mesh_file", "points.xyz", Out().put<uint8_t>(3).text("# points\n1 2 3\n\n4 5 6 0.1 0.2 0.3\n").b);
+    // First byte: the loader's options (bit 0 weld, bit 1 keep Y up), then the file.
+    const auto gltf = [](uint8_t options, const std::vector<uint8_t>& file) {
+        Out o;
+        o.put<uint8_t>(options);
+        o.b.insert(o.b.end(), file.begin(), file.end());
+        return o.b;
+    };
+    write("fuzz_gltf", "tube.glb", gltf(0, tube_gltf(true, false, false, false, false)));
+    write("fuzz_gltf", "tube_embedded.gltf", gltf(1, tube_gltf(false, false, false, false, true)));
+    write("fuzz_gltf", "tube_child_first_matrix.glb", gltf(2, tube_gltf(true, true, true, true, false)));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
@@ -50,7 +51,18 @@ AccessorData accessor_data(const tinygltf::Model& m, int index, int expected_typ
   d.normalized = acc.normalized;
   const int component_size = tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(acc.componentType));
   if (d.components <= 0 || component_size <= 0) fail(what + ": invalid accessor component type");
-  if (acc.bufferView < 0) return d;
+  if (acc.bufferView < 0) {
+    // No data: all zeros (sparse accessors, which could fill them, are refused above). Its
+    // count is not bounded by any buffer, so bound it by the bytes the file's buffers hold
+    // (plus a few KB for files with none) before allocating: a count of 4e9 would ask for
+    // tens of GB.
+    size_t bytes = 4096;
+    for (const tinygltf::Buffer& b : m.buffers) bytes += b.data.size();
+    if (d.count > bytes)
+      fail(what + ": accessor " + std::to_string(index) + " without data claims " + std::to_string(d.count) +
+           " elements, more than the file's buffers have bytes (" + std::to_string(bytes - 4096) + ")");
+    return d;
+  }
   if (static_cast<size_t>(acc.bufferView) >= m.bufferViews.size())
     fail(what + ": buffer view " + std::to_string(acc.bufferView) + " does not exist");
   const tinygltf::BufferView& view = m.bufferViews[static_cast<size_t>(acc.bufferView)];
@@ -60,11 +72,15 @@ AccessorData accessor_data(const tinygltf::Model& m, int index, int expected_typ
   const int stride = acc.ByteStride(view);
   if (stride <= 0) fail(what + ": invalid byte stride");
   d.stride = static_cast<size_t>(stride);
-  const size_t begin = view.byteOffset + acc.byteOffset;
+  // Each step compared before it is added, so that offsets and counts near 2^64 cannot wrap.
   const size_t element = static_cast<size_t>(d.components) * static_cast<size_t>(component_size);
-  const size_t end = d.count == 0 ? begin : begin + (d.count - 1) * d.stride + element;
-  if (view.byteOffset + view.byteLength > buffer.data.size() || end > view.byteOffset + view.byteLength)
-    fail(what + ": accessor data lies outside its buffer");
+  const size_t size = buffer.data.size();
+  const bool inside = view.byteOffset <= size && view.byteLength <= size - view.byteOffset &&
+                      acc.byteOffset <= view.byteLength &&
+                      (d.count == 0 || (element <= view.byteLength - acc.byteOffset &&
+                                        d.count - 1 <= (view.byteLength - acc.byteOffset - element) / d.stride));
+  if (!inside) fail(what + ": accessor data lies outside its buffer");
+  const size_t begin = view.byteOffset + acc.byteOffset;
   d.data = buffer.data.data() + begin;
   return d;
 }
@@ -192,28 +208,51 @@ FileNodes file_nodes(const tinygltf::Model& m) {
 // ----------------------------------------------------------------------------------------------
 // Loading steps
 
-tinygltf::Model read_model(const std::string& path) {
-  char magic[4] = {0, 0, 0, 0};
-  {
-    std::ifstream file(path, std::ios::binary);
-    if (!file) fail("cannot open the file");
-    file.read(magic, 4);
-  }
+/// Parses a .glb or .gltf held in memory. base_dir: where external buffers of a .gltf are
+/// looked for; nullptr: external files are refused (loading from memory).
+tinygltf::Model read_model(const unsigned char* bytes, size_t size, const std::string* base_dir) {
   tinygltf::TinyGLTF loader;
   // We never need pixels: accept every image without decoding it (no stb_image).
   loader.SetImageLoader([](tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int,
                            void*) { return true; },
                         nullptr);
+  if (base_dir == nullptr) {
+    tinygltf::FsCallbacks no_files{};
+    // "Exists", so that TinyGLTF asks to read it and the refusal below is the message.
+    no_files.FileExists = [](const std::string&, void*) { return true; };
+    no_files.ExpandFilePath = [](const std::string& p, void*) { return p; };
+    no_files.ReadWholeFile = [](std::vector<unsigned char>*, std::string* err, const std::string& p, void*) {
+      if (err) *err += "external file '" + p + "' not read: only embedded buffers when loading from memory\n";
+      return false;
+    };
+    no_files.WriteWholeFile = [](std::string*, const std::string&, const std::vector<unsigned char>&, void*) {
+      return false;
+    };
+    loader.SetFsCallbacks(no_files);
+  }
   tinygltf::Model model;
   std::string err, warn;
-  const bool binary = std::memcmp(magic, "glTF", 4) == 0;
-  const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, path)
-                         : loader.LoadASCIIFromFile(&model, &err, &warn, path);
+  const bool binary = size >= 4 && std::memcmp(bytes, "glTF", 4) == 0;
+  if (size > std::numeric_limits<unsigned int>::max()) fail("4 GB or larger (TinyGLTF reads up to 4 GB)");
+  const std::string dir = base_dir ? *base_dir : std::string();
+  const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &err, &warn, bytes, static_cast<unsigned int>(size), dir)
+                         : loader.LoadASCIIFromString(&model, &err, &warn, reinterpret_cast<const char*>(bytes),
+                                                      static_cast<unsigned int>(size), dir);
   if (!ok) fail("TinyGLTF could not parse it: " + err);
   for (const std::string& ext : model.extensionsRequired)
     if (ext == "KHR_draco_mesh_compression" || ext == "EXT_meshopt_compression")
       fail("compressed geometry (" + ext + ") is not supported");
   return model;
+}
+
+tinygltf::Model read_model(const std::string& path) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) fail("cannot open the file");
+  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  if (file.bad() || bytes.empty()) fail("cannot read the file, or it is empty");
+  const size_t slash = path.find_last_of("/\\");
+  const std::string dir = slash == std::string::npos ? std::string() : path.substr(0, slash);
+  return read_model(bytes.data(), bytes.size(), &dir);
 }
 
 /// The skin used by skinned mesh nodes, and the meshes (each once) using it.
@@ -448,8 +487,7 @@ Animation read_animation(const tinygltf::Model& m, size_t index, const std::vect
   return out;
 }
 
-Character load(const std::string& path, const GltfLoadOptions& options) {
-  const tinygltf::Model m = read_model(path);
+Character load(const tinygltf::Model& m, const GltfLoadOptions& options) {
   const FileNodes f = file_nodes(m);
   std::vector<int> meshes;
   const tinygltf::Skin& skin = m.skins[static_cast<size_t>(find_skin(m, meshes))];
@@ -531,9 +569,19 @@ Character load(const std::string& path, const GltfLoadOptions& options) {
 
 Character load_gltf_character(const std::string& path, const GltfLoadOptions& options) {
   try {
-    return load(path, options);
+    return load(read_model(path), options);
   } catch (const std::exception& e) {
     throw std::runtime_error("load_gltf_character(\"" + path + "\"): " + e.what());
+  }
+}
+
+Character load_gltf_character_from_memory(const void* data, size_t size, const std::string& name,
+                                          const GltfLoadOptions& options) {
+  try {
+    if (data == nullptr && size > 0) fail("no data");
+    return load(read_model(static_cast<const unsigned char*>(data), size, nullptr), options);
+  } catch (const std::exception& e) {
+    throw std::runtime_error("load_gltf_character(\"" + name + "\"): " + e.what());
   }
 }
 

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -360,7 +361,8 @@ class TinyGltfWriter {
                   ",\"type\":\"" + type + "\"" + (normalized ? ",\"normalized\":true" : "") + "}";
     return index;
   }
-  std::string json(const std::string& rest) const {
+  /// The glTF text; the buffer embedded as a data: URI, or in the external file `uri`.
+  std::string json(const std::string& rest, const std::string& uri = "") const {
     static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     std::string b64;
     for (size_t i = 0; i < data_.size(); i += 3) {
@@ -370,9 +372,10 @@ class TinyGltfWriter {
       for (int k = 0; k < 4; ++k) b64 += i + size_t(k) <= data_.size() ? abc[(n >> (18 - 6 * k)) & 63] : '=';
     }
     return "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":" + std::to_string(data_.size()) +
-           ",\"uri\":\"data:application/octet-stream;base64," + b64 + "\"}],\"bufferViews\":[" + views_ +
-           "],\"accessors\":[" + accessors_ + "]," + rest + "}";
+           ",\"uri\":\"" + (uri.empty() ? "data:application/octet-stream;base64," + b64 : uri) +
+           "\"}],\"bufferViews\":[" + views_ + "],\"accessors\":[" + accessors_ + "]," + rest + "}";
   }
+  const std::vector<uint8_t>& buffer() const { return data_; }
 
  private:
   std::vector<uint8_t> data_;
@@ -380,7 +383,8 @@ class TinyGltfWriter {
   int count_ = 0;
 };
 
-std::string write_synthetic_gltf(const std::string& name, int mode_of_b) {
+/// external_buffer: the buffer goes into this file beside the .gltf instead of a data: URI.
+std::string write_synthetic_gltf(const std::string& name, int mode_of_b, const std::string& external_buffer = "") {
   TinyGltfWriter w;
   const int pos_a = w.add(std::vector<float>{0, 0, 0, 1, 0, 0, 0.1f, 0.4f, 0}, 5126, "VEC3", 3);
   const int idx_a = w.add(std::vector<uint32_t>{0, 1, 2}, 5125, "SCALAR", 3);
@@ -408,8 +412,16 @@ std::string write_synthetic_gltf(const std::string& name, int mode_of_b) {
       attrs(pos_a, jnt_a, wgt_a) + ",\"indices\":" + std::to_string(idx_a) +
       "},{\"attributes\":" + attrs(pos_b, jnt_b, wgt_b) + ",\"mode\":" + std::to_string(mode_of_b) + "}]}]";
   const fs::path path = fs::temp_directory_path() / name;
-  std::ofstream(path) << w.json(rest);
+  std::ofstream(path) << w.json(rest, external_buffer);
+  if (!external_buffer.empty())
+    std::ofstream(fs::temp_directory_path() / external_buffer, std::ios::binary)
+        .write(reinterpret_cast<const char*>(w.buffer().data()), static_cast<std::streamsize>(w.buffer().size()));
   return path.string();
+}
+
+std::vector<uint8_t> file_bytes(const std::string& path) {
+  std::ifstream f(path, std::ios::binary);
+  return std::vector<uint8_t>((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
 }
 
 TEST(GltfLoader, SyntheticAccessorFormats) {
@@ -444,6 +456,90 @@ TEST(GltfLoader, SyntheticAccessorFormats) {
   }
   fs::remove(path);
   fs::remove(points);
+}
+
+TEST(GltfLoader, FromMemoryAsFromFileWithoutExternalFiles) {
+  sd::io::GltfLoadOptions o;
+  o.weld = true;
+  const std::string path = write_synthetic_gltf("sweepdeform_io_memory.gltf", 4);
+  const Character f = sd::io::load_gltf_character(path, o);
+  const std::vector<uint8_t> bytes = file_bytes(path);
+  const Character m = sd::io::load_gltf_character_from_memory(bytes.data(), bytes.size(), "memory.gltf", o);
+  EXPECT_EQ(m.positions, f.positions);
+  EXPECT_EQ(m.triangles, f.triangles);
+  EXPECT_EQ(m.bone_names, f.bone_names);
+  EXPECT_EQ(m.bone_rest, f.bone_rest);
+  EXPECT_EQ(m.skin_joints, f.skin_joints);
+  EXPECT_EQ(m.skin_weights, f.skin_weights);
+
+  // A buffer in a file beside the .gltf: read when loading the file, refused from memory.
+  const std::string external = write_synthetic_gltf("sweepdeform_io_external.gltf", 4, "sweepdeform_io_external.bin");
+  EXPECT_EQ(sd::io::load_gltf_character(external, o).positions, f.positions);
+  const std::vector<uint8_t> text = file_bytes(external);
+  try {
+    sd::io::load_gltf_character_from_memory(text.data(), text.size(), "memory.gltf", o);
+    ADD_FAILURE() << "an external buffer should be refused when loading from memory";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("external file 'sweepdeform_io_external.bin' not read"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(sd::io::load_gltf_character_from_memory(nullptr, 0, "empty", o), std::runtime_error);
+  EXPECT_THROW(sd::io::load_gltf_character(fs::temp_directory_path().string()), std::runtime_error);  // a directory
+  fs::remove(path);
+  fs::remove(external);
+  fs::remove(fs::temp_directory_path() / "sweepdeform_io_external.bin");
+}
+
+/// The fuzz target's seeds (make_fuzz_seeds: first byte the options, then the file) are valid
+/// characters, so that fuzz_gltf starts from inputs that reach the whole loader.
+TEST(GltfLoader, FuzzSeedsLoad) {
+  int seeds = 0;
+  for (const auto& entry : fs::directory_iterator(SWEEPDEFORM_FUZZ_CORPUS_DIR "/fuzz_gltf")) {
+    if (entry.path().filename().string().rfind("tube", 0) != 0) continue;
+    SCOPED_TRACE(entry.path().string());
+    ++seeds;
+    const std::vector<uint8_t> b = file_bytes(entry.path().string());
+    ASSERT_GT(b.size(), 1u);
+    sd::io::GltfLoadOptions o;
+    o.weld = (b[0] & 1) != 0;
+    o.to_blender_axes = (b[0] & 2) == 0;
+    const Character c = sd::io::load_gltf_character_from_memory(b.data() + 1, b.size() - 1, "seed", o);
+    EXPECT_EQ(c.bone_names, (std::vector<std::string>{"hip", "knee"}));
+    EXPECT_EQ(c.bone_parents, (std::vector<int32_t>{-1, 0}));
+    EXPECT_EQ(num_vertices(c), 12u);  // the seam vertex of the welded seed merged
+    EXPECT_EQ(c.triangles.size(), 60u);
+    EXPECT_EQ(boundary_edges(c.triangles), 0u);
+    ASSERT_EQ(c.animations.size(), 1u);
+    EXPECT_EQ(c.animations[0].channels.size(), 3u);
+    // At t = 1 the knee is turned 45 degrees about X relative to the hip, which moved by 0.1.
+    const std::vector<float> pose = sd::io::sample_pose(c, 0, 1.0);
+    const float up = o.to_blender_axes ? pose[16 + 13 + 1] : pose[16 + 13];  // knee head height
+    EXPECT_NEAR(up, 0.6f, 1e-5f);
+    const float c_y_y = pose[16 + 5], c_y_z = pose[16 + 6];  // knee's local Y axis, in Y-up axes
+    const float y_y = o.to_blender_axes ? pose[16 + 6] : c_y_y, y_z = o.to_blender_axes ? -pose[16 + 5] : c_y_z;
+    EXPECT_NEAR(std::atan2(y_z, y_y), 0.7853982, 1e-5);
+  }
+  EXPECT_EQ(seeds, 3);
+}
+
+/// Regression seeds of fuzz_gltf: an accessor without data claiming 4e9 elements asked for
+/// 48 GB (found by hand before the first run of fuzz_gltf, which would have found it); a count
+/// near 2^64 / 12 made (count - 1) * stride wrap around to 8, passing the bounds check (it then
+/// failed with std::vector's length_error rather than a message about the file).
+TEST(GltfLoader, RefusesCountsBeyondTheFile) {
+  const std::pair<const char*, const char*> cases[] = {
+      {"regress_zero_accessor_huge_count", "accessor 0 without data claims 4000000000 elements"},
+      {"regress_accessor_count_wraps", "accessor data lies outside its buffer"}};
+  for (const auto& [seed, message] : cases) {
+    const std::vector<uint8_t> b = file_bytes(SWEEPDEFORM_FUZZ_CORPUS_DIR "/fuzz_gltf/" + std::string(seed));
+    ASSERT_GT(b.size(), 1u) << seed;
+    try {
+      sd::io::load_gltf_character_from_memory(b.data() + 1, b.size() - 1, seed);
+      ADD_FAILURE() << seed << " should be refused";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  }
 }
 
 /// Two bones: a root at the origin and a child 1 unit up its parent's Y, with channels

@@ -1,6 +1,7 @@
 // Loading a skinned character from glTF 2.0 (.glb or .gltf).
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "sweepdeform_io/character.h"
@@ -53,5 +54,12 @@ struct GltfLoadOptions {
 ///   Tails are never at the head (a last resort uses +Y and 1% of the mesh size).
 /// Throws std::runtime_error with a message naming the file on any failure.
 Character load_gltf_character(const std::string& path, const GltfLoadOptions& options = {});
+
+/// The same from the bytes of a .glb, or of a .gltf whose buffers are embedded (data: URIs),
+/// told apart by the "glTF" magic as for a file. `name` stands for the file in messages.
+/// Buffers in external files are refused: there is no directory to look in, and a reader of
+/// untrusted bytes (the fuzz target) must not open files named in them.
+Character load_gltf_character_from_memory(const void* data, size_t size, const std::string& name,
+                                          const GltfLoadOptions& options = {});
 
 }  // namespace sd::io
