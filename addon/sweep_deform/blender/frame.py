@@ -80,7 +80,7 @@ def _output_check(e, obj, arm):
             ids, weights = binding.skin_weights(obj, arm, e.bone_names)
             lengths = np.array([arm.data.bones[n].length for n in e.bone_names], np.float64)
             e.output_check = output_check.OutputCheck(e.rest, e.rest_pose, lengths, ids, weights)
-        except (KeyError, ValueError, IndexError, MemoryError) as err:
+        except (KeyError, ValueError, IndexError, MemoryError, native.NativeError) as err:
             e.output_check_error = f"{type(err).__name__}: {err}"
             print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
     return e.output_check
@@ -93,7 +93,13 @@ def _checked_output(e, obj, arm, deformed, pose, depsgraph):
     check = _output_check(e, obj, arm)
     if check is None:
         return deformed
-    ratio, vertex, bone = check.worst(deformed, pose)
+    try:
+        ratio, vertex, bone = check.worst(deformed, pose)  # one parallel pass in the core
+    except (ValueError, native.NativeError) as err:  # not expected: the pose passed sd_deform's checks
+        e.output_check_error = f"{type(err).__name__}: {err}"
+        e.output_check = None
+        print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
+        return deformed
     if ratio <= output_check.RATIO_LIMIT:
         e.warning = ""
         return deformed
