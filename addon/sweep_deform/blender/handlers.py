@@ -67,6 +67,8 @@ def evaluate_scene(scene, depsgraph, render=False):
     for obj in bound_objects.in_scene(scene):
         if obj.sweep_deform.saved_for_blender_without_extension:
             binding.restore_after_save(obj)  # appended, or made local: no load_post came
+        else:
+            binding.sync_replaced_modifier(obj)  # the artist switched it on or off
         mode = obj.mode
         if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
             bind_state.check_topology(obj)

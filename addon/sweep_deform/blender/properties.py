@@ -165,6 +165,12 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
     armature_modifier_viewport: BoolProperty(default=True)
     armature_modifier_render: BoolProperty(default=True)
     armature_modifier_object: PointerProperty(type=bpy.types.Object, override={'LIBRARY_OVERRIDABLE'})
+    # While it is off, its Vertex Groups and Bone Envelopes are unticked (a switched-off
+    # Armature modifier still makes every pose change evaluate the mesh): the artist's values,
+    # given back whenever it is on (binding.sync_replaced_modifier).
+    armature_modifier_inputs_kept: BoolProperty(default=False)
+    armature_modifier_vertex_groups: BoolProperty(default=True)
+    armature_modifier_envelopes: BoolProperty(default=False)
     # A file saved while bound has the Armature modifier on and Sweep Deform off, for Blender
     # without the extension (binding.prepare_for_save); the extension restores these on load.
     saved_for_blender_without_extension: BoolProperty(default=False)
