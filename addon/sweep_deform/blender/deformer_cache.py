@@ -33,6 +33,7 @@ class Entry:
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self._packed = None
+        self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
         self.settings = None
         self.labels = []
         self.frames = 0
@@ -159,6 +160,7 @@ class Entry:
         """The next evaluation computes and writes again, whatever it finds."""
         self.written.clear()
         self.refused_key = None
+        self.render_carrier_for = None
 
     def refuse(self, obj, message):
         """A frame that cannot be deformed: nothing is written, the panel shows `message` (the
