@@ -34,6 +34,7 @@ class Entry:
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self._packed = None
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
+        self.matrices_seen = None  # (object, armature) world matrices last found usable
         self.settings = None
         self.labels = []
         self.frames = 0

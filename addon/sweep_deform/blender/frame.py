@@ -186,7 +186,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     except KeyError as err:
         bind_state.set_rebind(obj, _rest_message(obj, arm, e.rest_pose_problem(arm) or err.args[0]))
         return False
-    problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
+    matrices = (obj_eval.matrix_world.copy(), arm_eval.matrix_world.copy())
+    problem = None if matrices == e.matrices_seen else \
+        checks.transforms_problem(matrices[0], obj.name, matrices[1], arm.name)
+    e.matrices_seen = None if problem else matrices  # the same matrices as last time: as fine as then
     if problem:
         e.refuse(obj, f"{problem}: {KEPT}")
         e.forget_writes()

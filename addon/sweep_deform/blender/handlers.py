@@ -142,6 +142,7 @@ def on_save_post(*_args):
 @persistent
 def on_load_post(*_args):
     deformer_cache.clear()
+    modifier.forget_identifiers()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
         modifier.node_group()  # bring an older layout up to date
@@ -159,6 +160,7 @@ def on_load_post(*_args):
 @persistent
 def on_undo_redo_post(*_args):
     deformer_cache.clear()
+    modifier.forget_identifiers()
 
 
 _HANDLERS = (

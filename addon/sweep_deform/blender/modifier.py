@@ -72,6 +72,7 @@ def _int_inputs(node):
 
 
 def _build(ng):
+    _identifiers.clear()  # its sockets are made again
     ng.nodes.clear()
     ng.interface.clear()
     ng.interface.new_socket(name="Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
@@ -271,12 +272,30 @@ def active(md, render):
 # ---- the modifier's carrier input ---------------------------------------------------------
 
 
+#: (node group pointer, its layout tag, render) -> the input's identifier: looked up once per
+#: group, not on every frame (the group's interface only changes with its layout); forgotten
+#: on load and undo, which reallocate the groups.
+_identifiers = {}
+
+
+def forget_identifiers():
+    _identifiers.clear()
+
+
 def _input_identifier(md, render=False):
     ng = md.node_group
-    for item in ng.interface.items_tree if ng is not None else ():
-        if getattr(item, "in_out", None) == 'INPUT' and item.name == INPUTS[render]:
-            return item.identifier
-    return None
+    if ng is None:
+        return None
+    key = (ng.as_pointer(), ng.get(GROUP_TAG), render)
+    found = _identifiers.get(key)
+    if found is None:
+        for item in ng.interface.items_tree:
+            if getattr(item, "in_out", None) == 'INPUT' and item.name == INPUTS[render]:
+                found = item.identifier
+                break
+        if found is not None:
+            _identifiers[key] = found
+    return found
 
 
 def _input_slot(md, identifier):
