@@ -5,14 +5,17 @@ Prints the figures and the ratio; never fails on speed (test_modifier.py counts 
 
     BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
         --python tests/blender/measure_hidden.py -- [--zip ZIP] [--frames N] [--rounds R] \\
-        [--character fixture|fixture_full] [--how mixed|eye|disabled|excluded]
+        [--character fixture|fixture_full] [--how mixed|eye|disabled|excluded] [--deform sweep|armature]
 
 The characters are Alt+D copies of the built-in one (``fixture``: 4,714 vertices, the default;
 ``fixture_full``: 75,394), bound with the product's fitting, each on its own armature with the
 same keyed elbows and knees; the nine are hidden three ways each, mesh and armature: hidden in
 the view layer (H), disabled in viewports, in an excluded collection. The two set-ups take
 turns, R rounds of N played frames each (the first frames of a round not counted), so a busy
-spell of the shared machine hits both alike; medians of the per-frame times.
+spell of the shared machine hits both alike; medians of the per-frame times. ``--how`` hides
+all nine one way instead, to tell the ways' costs apart; ``--deform armature`` leaves the
+characters unbound, deformed by Blender's Armature modifier: what Blender itself spends on
+characters that do not show (an armature hidden with H is still animated and posed every frame).
 """
 
 import os
@@ -33,7 +36,8 @@ WARM = 3
 
 def args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    opts = {"zip": install.default_zip(), "frames": 40, "rounds": 6, "character": "fixture", "how": "mixed"}
+    opts = {"zip": install.default_zip(), "frames": 40, "rounds": 6, "character": "fixture", "how": "mixed",
+            "deform": "sweep"}
     for i in range(0, len(argv) - 1, 2):
         opts[argv[i].lstrip("-")] = argv[i + 1]
     opts["frames"], opts["rounds"] = int(opts["frames"]), int(opts["rounds"])
@@ -67,7 +71,8 @@ def main():
     char = helpers.load(opts["character"])
     obj = char.mesh
     bpy.context.view_layer.objects.active = obj
-    assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
+    if opts["deform"] == "sweep":
+        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
     scene = bpy.context.scene
     test_modifier.animate_elbows(char, ((1, 0.0), (40, 1.4), (80, 0.2), (120, 1.2)))
     others = []
@@ -100,6 +105,7 @@ def main():
     handlers = helpers.sub("blender.handlers")
     frame = helpers.sub("blender.frame")
     inner, spent = handlers.evaluate_scene, []
+    inner_frame, shown = frame.evaluate, []
 
     def timed(*a, **k):
         t = time.perf_counter()
@@ -108,9 +114,16 @@ def main():
         finally:
             spent.append(time.perf_counter() - t)
 
-    handlers.evaluate_scene = timed
+    def timed_frame(*a, **k):  # a character that shows (hidden ones never get here)
+        t = time.perf_counter()
+        try:
+            return inner_frame(*a, **k)
+        finally:
+            shown.append(time.perf_counter() - t)
+
+    handlers.evaluate_scene, frame.evaluate = timed, timed_frame
     n, results = opts["frames"], {True: [], False: []}
-    addon = {True: [], False: []}
+    addon, rest = {True: [], False: []}, {True: [], False: []}
     calls = {True: 0, False: 0}
     try:
         for r in range(opts["rounds"]):
@@ -123,29 +136,36 @@ def main():
                 before = frame.core_calls
                 times = []
                 for i, f in enumerate(frames):
-                    mark = len(spent)
+                    mark, mark_shown = len(spent), len(shown)
                     t = time.perf_counter()
                     scene.frame_set(f)
                     dt = time.perf_counter() - t
                     if i >= WARM:
                         times.append(dt)
                         addon[is_alone].append(sum(spent[mark:]))
+                        rest[is_alone].append(sum(spent[mark:]) - sum(shown[mark_shown:]))
                 results[is_alone] += times
                 calls[is_alone] += frame.core_calls - before
     finally:
-        handlers.evaluate_scene = inner
+        handlers.evaluate_scene, frame.evaluate = inner, inner_frame
         alone(False)
     frames_counted = opts["rounds"] * (n - WARM)
     hidden, single = statistics.median(results[False]), statistics.median(results[True])
     hidden_addon, single_addon = statistics.median(addon[False]), statistics.median(addon[True])
-    print(f"\n{opts['character']}: {len(obj.data.vertices):,} vertices a character, Blender {bpy.app.version_string}; "
+    deformed_by = "Sweep Deform" if opts["deform"] == "sweep" else "Blender's Armature modifier (not bound)"
+    print(f"\n{opts['character']}: {len(obj.data.vertices):,} vertices a character, {deformed_by}, "
+          f"hidden {opts['how']}, Blender {bpy.app.version_string}; "
           f"{opts['rounds']} rounds of {n - WARM} frames per set-up; median ms a frame")
-    print(f"  ten characters, nine hidden: {1e3 * hidden:.3f} ms (add-on {1e3 * hidden_addon:.3f} ms; "
-          f"{calls[False] / (opts['rounds'] * n):.2f} core calls a frame)")
-    print(f"  the visible one alone:       {1e3 * single:.3f} ms (add-on {1e3 * single_addon:.3f} ms; "
-          f"{calls[True] / (opts['rounds'] * n):.2f} core calls a frame)")
-    print(f"  ratio nine hidden / alone: {hidden / single:.2f} (add-on {hidden_addon / single_addon:.2f}); "
-          f"{frames_counted} frames each")
+    if opts["deform"] == "sweep":
+        for label, key in (("ten characters, nine hidden:", False), ("the visible one alone:      ", True)):
+            print(f"  {label} {1e3 * statistics.median(results[key]):.3f} ms (add-on "
+                  f"{1e3 * statistics.median(addon[key]):.3f} ms, of which {1e3 * statistics.median(rest[key]):.3f} ms "
+                  f"besides the visible character's frame; {calls[key] / (opts['rounds'] * n):.2f} core calls a frame)")
+        print(f"  ratio nine hidden / alone: {hidden / single:.2f} (add-on {hidden_addon / single_addon:.2f}); "
+              f"{frames_counted} frames each")
+    else:
+        print(f"  ten characters, nine hidden: {1e3 * hidden:.3f} ms; the visible one alone: {1e3 * single:.3f} ms")
+        print(f"  ratio nine hidden / alone: {hidden / single:.2f}; {frames_counted} frames each")
 
 
 if __name__ == "__main__":
