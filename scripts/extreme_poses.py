@@ -83,10 +83,9 @@ def main():
             posed[b] = base @ local[b]
         pose = np.ascontiguousarray(posed.transpose(0, 2, 1).reshape(-1)).astype(np.float32)
         out = deformer.deform(pose).copy()
-        ratios = check.ratios(out, pose)
-        v = int(np.argmax(ratios))
-        rows.append((f, float(ratios[v]), v, names[check.bones[v, 0]]))
-        if ratios[v] > output_check.RATIO_LIMIT:
+        ratio, v, bone = check.largest(out, pose)
+        rows.append((f, ratio, v, names[bone]))
+        if ratio > output_check.RATIO_LIMIT:
             print("BEYOND", rows[-1], flush=True)
     rows.sort(key=lambda r: -r[1])
     print(f"{frames} frames in {time.time() - t0:.0f} s; worst:", rows[:5])

@@ -3,6 +3,7 @@
 and out. (That core/ imports no bpy is test_core_without_blender.py.)"""
 
 import numpy as np
+import pytest
 
 import addon_modules
 
@@ -112,9 +113,14 @@ def test_humanoid_check_names_what_is_missing():
 
 
 def test_output_check_on_two_bones():
-    """core/output_check.py on two bones along +Y: a vertex 0.1 from its bone (above the floor,
-    5 % of a body 1.0 across) may move off it up to the bound, not beyond; the fallback is the
-    weighted rigid motion."""
+    """core/output_check.py on the core's check (sd_output_check_*, the library named by
+    $SWEEPDEFORM_LIBRARY, which `ctest -L addon` sets) on two bones along +Y: a vertex 0.1 from
+    its bone (above the floor, 5 % of a body 1.0 across) may move off it up to the bound, not
+    beyond; the fallback is the weighted rigid motion."""
+    native = addon_modules.import_core("native")
+    available, why = native.available()
+    if not available:
+        pytest.skip(f"no libsweepdeform to check with ({why}); ctest -L addon sets SWEEPDEFORM_LIBRARY")
     check = addon_modules.import_core("output_check")
     rest = np.eye(4, dtype=np.float32)
     second = np.eye(4, dtype=np.float32)
@@ -128,12 +134,16 @@ def test_output_check_on_two_bones():
     moved = pts.copy()
     moved[0, 0] = 0.1 * check.RATIO_LIMIT * 0.99
     assert c.ratios(moved, mats)[0] < check.RATIO_LIMIT and c.worst(moved, mats) == (0.0, -1, -1)
+    ratio, vertex, bone = c.largest(moved, mats)
+    assert abs(ratio - check.RATIO_LIMIT * 0.99) < 1e-5 and vertex == 0 and bone == 0
     moved[0, 0] = 0.1 * check.RATIO_LIMIT * 1.5
     ratio, vertex, bone = c.worst(moved, mats)
     assert abs(ratio - check.RATIO_LIMIT * 1.5) < 1e-5 and vertex == 0 and bone == 0
     moved[1] = np.nan  # a non-finite output is beyond the bound too
-    assert c.worst(moved, mats)[0] == np.inf
+    assert c.worst(moved, mats)[:2] == (np.inf, 1)
     shifted = mats.copy()
     shifted[12:15] = (1.0, 0.0, 0.0)  # bone 0 moves by +x
     lbs = c.linear_blend(shifted)
     np.testing.assert_allclose(lbs, [[1.1, 0.5, 0.0], [0.85, 1.5, 0.0]], atol=1e-6)
+    with pytest.raises(ValueError):  # the wrong dtype never reaches C
+        c.core.run(moved.astype(np.float64), shifted, 3.0)

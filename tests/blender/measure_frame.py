@@ -109,15 +109,21 @@ def time_playback(obj, frames):
 
 
 def configure(obj, mode):
-    """mode: 'sweep', 'armature', 'armature_dqs' ('sweep_rel': the switched-off Armature
-    modifier keeps its object, so the mesh still depends on the pose in the depsgraph)."""
-    from bl_ext.user_default.sweep_deform.blender import modifier
+    """mode: 'sweep' (as bound: the replaced Armature modifier off, keeping its object, its
+    Vertex Groups unticked while off), 'sweep_inputs' (the same with its Vertex Groups ticked,
+    as before: the mesh depends on every bone in the depsgraph and is evaluated twice per pose
+    change), 'armature', 'armature_dqs'."""
+    from bl_ext.user_default.sweep_deform.blender import binding, modifier
+    s = obj.sweep_deform
     md_sweep = modifier.find(obj)
-    md_arm = obj.modifiers[obj.sweep_deform.armature_modifier]
-    md_arm.object = obj.sweep_deform.armature if mode in ('armature', 'armature_dqs', 'sweep_rel') else None
+    md_arm = obj.modifiers[s.armature_modifier]
+    md_arm.object = s.armature
     md_sweep.show_viewport = mode.startswith('sweep')
     md_arm.show_viewport = not mode.startswith('sweep')
     md_arm.use_deform_preserve_volume = mode == 'armature_dqs'
+    binding.sync_replaced_modifier(obj)  # what the handler does at the next update
+    if mode == 'sweep_inputs':
+        md_arm.use_vertex_groups = True  # (the artist's value stays remembered: nothing syncs it back)
     if not mode.startswith('sweep'):
         modifier.clear_offsets(obj)
     bpy.context.view_layer.update()
@@ -192,7 +198,7 @@ def measure(key, n, rig="fit", shape_key=False):
 
     # The modes take turns in blocks of BLOCK poses (the first WARM of each block not recorded),
     # so a busy spell of the machine hits them alike while each runs warm, as in use.
-    modes = ('sweep', 'sweep_rel', 'armature', 'armature_dqs')
+    modes = ('sweep', 'sweep_inputs', 'armature', 'armature_dqs')
     results = {(m, sub): [] for m in modes for sub in ('posing', 'playback', 'addon')}
     blocks = [pose_list[i:i + BLOCK] for i in range(0, len(pose_list) - BLOCK + 1, BLOCK)]
     for b, block in enumerate(blocks):
@@ -228,8 +234,8 @@ def measure(key, n, rig="fit", shape_key=False):
     print(f"\n{key}: {V:,} vertices, {len(arm.pose.bones)} bones, {body.sweep_deform.sweep_count} sweeps, "
           f"{'fitted' if rig == 'fit' else 'bone rig'}{', a shape key at 1' if shape_key else ''}, fit+bind {bind_s * 1e3:.0f} ms; Blender {bpy.app.version_string}; {n} frames; median / mean ms")
     print(f"  {'':32s}{'posing':>16s}{'playback':>16s}")
-    for mode, label in (('sweep', 'Sweep Deform'), ('sweep_rel', 'Sweep, Armature modifier kept'), ('armature', 'Armature modifier'),
-                        ('armature_dqs', 'Armature, Preserve Volume')):
+    for mode, label in (('sweep', 'Sweep Deform'), ('sweep_inputs', 'Sweep, off modifier reads bones'),
+                        ('armature', 'Armature modifier'), ('armature_dqs', 'Armature, Preserve Volume')):
         p, b = ms(results[mode, 'posing']), ms(results[mode, 'playback'])
         print(f"  {label:32s}{p[0]:8.2f} /{p[1]:6.2f}{b[0]:8.2f} /{b[1]:6.2f}")
     for sub in ('posing', 'playback'):

@@ -2,6 +2,8 @@
 """Live evaluation: pose elbows and knees through the armature (plain posing, IK, playback)
 and the evaluated mesh is exactly what the core computes."""
 
+import os
+
 import bpy
 import numpy as np
 import pytest
@@ -267,6 +269,7 @@ def test_apply_bakes_once():
     np.testing.assert_array_equal(co, posed)  # not deformed a second time
     arm_md = next(m for m in obj.modifiers if m.type == 'ARMATURE')
     assert not arm_md.show_viewport  # would deform the baked mesh again
+    assert arm_md.use_vertex_groups  # but its inputs are the artist's again
 
 
 def test_remove_and_unbind_restore_the_armature_modifier():
@@ -280,10 +283,12 @@ def test_remove_and_unbind_restore_the_armature_modifier():
     assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(obj) is not None
     assert bpy.ops.object.sweep_deform_bind() == {'FINISHED'}
     assert not arm_md.show_viewport
+    assert not arm_md.use_vertex_groups  # while it is off (test_switched_off_armature_modifier_...)
     obj.modifiers.remove(helpers.sub("blender.modifier").find(obj))
     bpy.context.view_layer.update()
     assert obj.sweep_deform.state == 'UNBOUND'
     assert arm_md.show_viewport and arm_md.show_render and arm_md.object == char.armature
+    assert arm_md.use_vertex_groups
 
 
 def test_operator_errors_are_reported():
@@ -338,3 +343,88 @@ def test_in_menus_for_f3_search():
     assert ops._object_menu in bpy.types.VIEW3D_MT_object._dyn_ui_initialize()
     deform = getattr(bpy.types, "OBJECT_MT_modifier_add_deform", None)
     assert deform is not None and ops._modifier_menu in deform._dyn_ui_initialize()
+
+
+def _mesh_evaluated_before_the_handler(obj, arm, elbow):
+    """Poses the elbows and reports whether the depsgraph evaluated the mesh's geometry in
+    the update's first pass, the one whose depsgraph_update_post runs the add-on's handler
+    (before the handler writes the carrier; the second pass re-evaluates it with the offsets)."""
+    seen = []
+
+    def look(scene, depsgraph):
+        seen.append(any(u.id.original == obj.data or (u.id.original == obj and u.is_updated_geometry)
+                        for u in depsgraph.updates))
+
+    for name in ("forearm.L", "forearm.R"):
+        helpers.set_rotation(arm.pose.bones[name], (elbow, 0.0, 0.0))
+    bpy.app.handlers.depsgraph_update_post.insert(0, look)  # before the add-on's
+    try:
+        bpy.context.view_layer.update()
+    finally:
+        bpy.app.handlers.depsgraph_update_post.remove(look)
+    assert len(seen) == 1, seen
+    return seen[0]
+
+
+def test_switched_off_armature_modifier_costs_no_evaluation():
+    """The replaced Armature modifier, off and keeping its object (issue 15), makes Blender
+    evaluate the mesh on every pose change if it still reads the bones (Vertex Groups or Bone
+    Envelopes ticked): once for nothing before the handler writes the offsets, once after. So
+    while it is off both are unticked, and they are the artist's again whenever it is on (the
+    artist comparing, a save, unbinding)."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj, arm = char.mesh, char.armature
+    md_arm = next(m for m in obj.modifiers if m.type == 'ARMATURE')
+    md_arm.use_bone_envelopes = True  # the artist's set-up: both ticked
+    assert md_arm.use_vertex_groups
+    # Unbound, the Armature modifier deforms: a pose change evaluates the mesh in the first pass
+    # (the check below can tell).
+    assert _mesh_evaluated_before_the_handler(obj, arm, 0.7)
+    obj = helpers.bind(char)
+    s = obj.sweep_deform
+    assert md_arm.object == arm and not md_arm.show_viewport and not md_arm.show_render
+    assert not md_arm.use_vertex_groups and not md_arm.use_bone_envelopes
+    assert not _mesh_evaluated_before_the_handler(obj, arm, 1.1)
+    check_equals_core(obj, "one evaluation")
+    # Ticked again while off (what the add-on did before): the first pass evaluates the mesh.
+    md_arm.use_vertex_groups = True
+    assert _mesh_evaluated_before_the_handler(obj, arm, 0.5)
+    check_equals_core(obj, "two evaluations")
+    md_arm.use_vertex_groups = False
+
+    # The artist switches it on to compare: their inputs are back at the next update, and it
+    # deforms; off again, unticked again.
+    md_arm.show_viewport = True
+    bpy.context.view_layer.update()
+    assert md_arm.use_vertex_groups and md_arm.use_bone_envelopes
+    md_arm.show_viewport = False
+    bpy.context.view_layer.update()
+    assert not md_arm.use_vertex_groups and not md_arm.use_bone_envelopes and s.armature_modifier_inputs_kept
+
+    # A save: the file has the artist's modifier (on, both ticked); this session goes on as before.
+    path = os.path.join(helpers.tmp_dir(), "replaced_inputs.blend")
+    seen = {}
+
+    def on_save(*_):
+        seen["saved"] = (md_arm.show_viewport, md_arm.use_vertex_groups, md_arm.use_bone_envelopes)
+
+    bpy.app.handlers.save_pre.append(on_save)  # after the add-on's
+    try:
+        bpy.ops.wm.save_as_mainfile(filepath=path)
+    finally:
+        bpy.app.handlers.save_pre.remove(on_save)
+    assert seen["saved"] == (True, True, True), seen
+    assert not md_arm.show_viewport and not md_arm.use_vertex_groups and not md_arm.use_bone_envelopes
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj, arm = bpy.data.objects[char.mesh_name], bpy.data.objects[char.armature_name]
+    md_arm = obj.modifiers[obj.sweep_deform.armature_modifier]
+    assert not md_arm.show_viewport and not md_arm.use_vertex_groups and not md_arm.use_bone_envelopes
+    assert not _mesh_evaluated_before_the_handler(obj, arm, 0.9)
+    check_equals_core(obj, "reopened")
+
+    # Unbinding gives everything back.
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.sweep_deform_unbind() == {'FINISHED'}
+    assert md_arm.show_viewport and md_arm.use_vertex_groups and md_arm.use_bone_envelopes and md_arm.object == arm
+    assert not obj.sweep_deform.armature_modifier_inputs_kept

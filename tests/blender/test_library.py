@@ -123,12 +123,6 @@ def test_linked_character():
     assert handler_failures() == before
 
 
-# Known bug, found when issue 15's portable save (a bound library is saved with its Armature
-# modifier on and Sweep Deform off) met issue 16's override carriers: the override's modifiers
-# are restored at its first evaluation (binding.restore_after_save), but its positions are then
-# 13 mm (one update) to 10 cm (two updates) off the core's. Each branch alone passed this test.
-@pytest.mark.xfail(reason="override of a library saved for Blender without the extension: positions "
-                          "off the core's (issue 15 x 16, see the comment above)", strict=False)
 def test_library_override_deforms():
     """The usual way to animate a linked character is a library override of its collection;
     its mesh stays linked, and it deforms: the override's modifier gets a local carrier. Saved
@@ -152,9 +146,16 @@ def test_library_override_deforms():
     save_and_reopen("overrides_character.blend")
     body, arm = (bpy.data.objects[n] for n in names)
     assert body.override_library is not None and body.data.library is not None
+    # The binding's armature pointer is the override's after reopening too, not the linked
+    # armature (which is in no scene): it used to come back from the library on reload.
+    assert body.sweep_deform.armature == arm and arm.override_library is not None
     pose(arm, 0.3, 1.3)
     bpy.context.view_layer.update()
     check_equals_core(body, "override, reopened")
+    e = helpers.sub("blender.deformer_cache").peek(body)
+    assert body.sweep_deform.state == 'BOUND' and not e.error, e.error
+    bpy.context.view_layer.update()  # a second update changes nothing
+    check_equals_core(body, "override, reopened, updated again")
 
     # Made local (what older versions asked for) it deforms as well.
     for o in bpy.context.selected_objects:

@@ -275,6 +275,7 @@ def store(obj, arm, inp, out):
         replaced.show_render = False
         if replaced.object is None:  # cleared by a binding made before version 0.2
             replaced.object = s.armature_modifier_object or arm
+        sync_replaced_modifier(obj)
     md = modifier.find(obj)
     if md is None:
         md = modifier.ensure(obj, before=replaced)
@@ -298,6 +299,49 @@ def replaced_armature_modifier(obj):
         return None
     md = obj.modifiers.get(s.armature_modifier)
     return md if md is not None and md.type == 'ARMATURE' else None
+
+
+def sync_replaced_modifier(obj):
+    """The replaced Armature modifier's Vertex Groups and Bone Envelopes follow its toggles.
+
+    A switched-off Armature modifier that keeps its object still declares, in the depsgraph, a
+    dependency of the mesh on every bone it would read (one per vertex group; the whole pose
+    with envelopes): every pose change then evaluates the mesh once before the handler writes
+    the carrier, for nothing, and once after. With neither input ticked it declares none (its
+    object's transform only). So while it is off for viewport and render its two inputs are
+    unticked, the artist's values remembered in Object.sweep_deform; whenever it is on again
+    (the artist comparing, a save for Blender without the extension, unbinding) they are given
+    back. Its object and every other setting stay as the artist made them. Returns True if it
+    changed the modifier. Nothing is done for linked objects (Blender would not keep it)."""
+    md_arm = replaced_armature_modifier(obj)
+    if md_arm is None or obj.library is not None:
+        return False
+    s = obj.sweep_deform
+    off = s.state != 'UNBOUND' and not md_arm.show_viewport and not md_arm.show_render
+    if off and not s.armature_modifier_inputs_kept:
+        # (a modifier switched on and off again by the artist is seen here, at the next update)
+        s.armature_modifier_vertex_groups = md_arm.use_vertex_groups
+        s.armature_modifier_envelopes = md_arm.use_bone_envelopes
+        s.armature_modifier_inputs_kept = True
+        if md_arm.use_vertex_groups:
+            md_arm.use_vertex_groups = False
+        if md_arm.use_bone_envelopes:
+            md_arm.use_bone_envelopes = False
+        return True
+    if not off and s.armature_modifier_inputs_kept:
+        _give_inputs_back(md_arm, s)
+        return True
+    return False
+
+
+def _give_inputs_back(md_arm, s):
+    """The replaced modifier's Vertex Groups and Bone Envelopes as the artist had them."""
+    if s.armature_modifier_inputs_kept:
+        if md_arm.use_vertex_groups != s.armature_modifier_vertex_groups:
+            md_arm.use_vertex_groups = s.armature_modifier_vertex_groups
+        if md_arm.use_bone_envelopes != s.armature_modifier_envelopes:
+            md_arm.use_bone_envelopes = s.armature_modifier_envelopes
+    s.armature_modifier_inputs_kept = False
 
 
 def _portable(obj):
@@ -335,6 +379,7 @@ def prepare_for_save(obj):
     if md_arm.object is None:
         md_arm.object = s.armature_modifier_object or s.armature
     s.saved_for_blender_without_extension = True
+    _give_inputs_back(md_arm, s)  # the file on disk has the artist's Armature modifier
     return True
 
 
@@ -357,20 +402,22 @@ def restore_after_save(obj):
     md_arm.show_render = False
     if md_arm.object is None:
         md_arm.object = s.armature_modifier_object or s.armature
-    return changed
+    return sync_replaced_modifier(obj) or changed
 
 
 def unbind(obj, restore_armature_modifier=True):
     """Removes the binding and the offsets; restores the Armature modifier it replaced.
     The Sweep Deform modifier itself stays (unbound, it does nothing)."""
     s = obj.sweep_deform
-    if restore_armature_modifier and s.armature_modifier:
-        md = obj.modifiers.get(s.armature_modifier)
-        if md is not None and md.type == 'ARMATURE':
+    md = obj.modifiers.get(s.armature_modifier) if s.armature_modifier else None
+    if md is not None and md.type == 'ARMATURE':
+        if restore_armature_modifier:
             md.show_viewport = s.armature_modifier_viewport
             md.show_render = s.armature_modifier_render
             if md.object is None:
                 md.object = s.armature_modifier_object or s.armature
+        _give_inputs_back(md, s)  # (also when it stays off: Apply baked the deformation)
+    s.armature_modifier_inputs_kept = False
     s.armature_modifier = ""
     s.armature_modifier_object = None
     s.bound_armature_object = None

@@ -1,7 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Which objects of a scene carry a binding, without scanning every object on every update."""
 
-_bound = {}      # scene name -> (object count, generation, [object names])
+_bound = {}      # scene name -> (object count, generation, [objects])
 _generation = 0  # bumped by every bind, unbind, load and undo
 
 
@@ -19,17 +19,17 @@ def clear():
 def in_scene(scene):
     """Mesh objects of the scene with a binding (any state but UNBOUND). Scanning every
     object on every depsgraph update would cost a large scene dearly: the list is kept until
-    the scene's object count or the generation changes."""
+    the scene's object count or the generation changes (an object removed changes the count,
+    and load and undo the generation, before a kept reference could go stale); a renamed
+    object is the same object."""
     objects = scene.objects
     cached = _bound.get(scene.name)
-    if cached is None or cached[0] != len(objects) or cached[1] != _generation:
-        names = [o.name for o in objects if o.type == 'MESH' and o.sweep_deform.state != 'UNBOUND']
-        cached = _bound[scene.name] = (len(objects), _generation, names)
-    found = []
-    for name in cached[2]:
-        o = objects.get(name)
-        if o is None or o.type != 'MESH' or o.sweep_deform.state == 'UNBOUND':
-            _bound.pop(scene.name, None)  # renamed or unbound: scan again next time
-            continue
-        found.append(o)
+    if cached is not None and cached[0] == len(objects) and cached[1] == _generation:
+        try:
+            if all(o.sweep_deform.state != 'UNBOUND' for o in cached[2]):
+                return cached[2]
+        except ReferenceError:  # removed in a way the count did not show
+            pass
+    found = [o for o in objects if o.type == 'MESH' and o.sweep_deform.state != 'UNBOUND']
+    _bound[scene.name] = (len(objects), _generation, found)
     return found

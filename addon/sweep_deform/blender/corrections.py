@@ -45,6 +45,8 @@ def sync_corrections(e, settings):
     """Hands the corrections of `settings` to the cache entry's rig and deformer if they
     changed. Returns the corrections' key (part of the evaluation key). Invalid corrections
     are refused by the core: the previous ones stay, and the panel shows why."""
+    if not len(settings.corrections) and e.corrections_key == b"":
+        return b""  # none, as before (most characters: no foreach_get per frame)
     arrays = correction_arrays(settings)
     key = b"".join(a.tobytes() for a in arrays)
     if key != e.corrections_key:

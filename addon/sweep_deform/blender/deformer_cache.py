@@ -33,6 +33,8 @@ class Entry:
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self._packed = None
+        self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
+        self.matrices_seen = None  # (object, armature) world matrices last found usable
         self.settings = None
         self.labels = []
         self.frames = 0
@@ -110,7 +112,7 @@ class Entry:
         if self.pose_buffer is None or self.pose_buffer.size != 16 * n:
             self.pose_buffer = np.empty(16 * n, np.float32)
             self.order_names = None
-        names = [b.name for b in bones]
+        names = bones.keys()  # in C: 6 µs for MakeHuman's 53 bones, 29 µs by name one by one
         if names != self.order_names:
             self.order = arrays.pose_order(self.bone_names, names)
             self.order_names = names
@@ -159,6 +161,7 @@ class Entry:
         """The next evaluation computes and writes again, whatever it finds."""
         self.written.clear()
         self.refused_key = None
+        self.render_carrier_for = None
 
     def refuse(self, obj, message):
         """A frame that cannot be deformed: nothing is written, the panel shows `message` (the

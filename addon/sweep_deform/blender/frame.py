@@ -11,6 +11,8 @@ mesh is never written). A frame that cannot be deformed writes nothing: the mesh
 last good deformation and the panel says why.
 """
 
+import math
+
 import numpy as np
 
 from ..core import arrays, checks, native, output_check
@@ -80,23 +82,30 @@ def _output_check(e, obj, arm):
             ids, weights = binding.skin_weights(obj, arm, e.bone_names)
             lengths = np.array([arm.data.bones[n].length for n in e.bone_names], np.float64)
             e.output_check = output_check.OutputCheck(e.rest, e.rest_pose, lengths, ids, weights)
-        except (KeyError, ValueError, IndexError, MemoryError) as err:
+        except (KeyError, ValueError, IndexError, MemoryError, native.NativeError) as err:
             e.output_check_error = f"{type(err).__name__}: {err}"
             print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
     return e.output_check
 
 
 def _checked_output(e, obj, arm, deformed, pose, depsgraph):
-    """The frame's deformed positions, or, when a vertex ends farther from its posed bones than
-    output_check.RATIO_LIMIT times its rest distance (a pose the sweeps cannot follow), the
-    linear blend skinning of the same pose; the panel then names the frame and the bone."""
+    """(the frame's deformed positions, True: checked and so finite), or, when a vertex ends
+    farther from its posed bones than output_check.RATIO_LIMIT times its rest distance (a pose
+    the sweeps cannot follow), (the linear blend skinning of the same pose, False); the panel
+    then names the frame and the bone."""
     check = _output_check(e, obj, arm)
     if check is None:
-        return deformed
-    ratio, vertex, bone = check.worst(deformed, pose)
-    if ratio <= output_check.RATIO_LIMIT:
+        return deformed, False
+    try:
+        ratio, vertex, bone = check.worst(deformed, pose)  # one parallel pass in the core
+    except (ValueError, native.NativeError) as err:  # not expected: the pose passed sd_deform's checks
+        e.output_check_error = f"{type(err).__name__}: {err}"
+        e.output_check = None
+        print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
+        return deformed, False
+    if vertex < 0:
         e.warning = ""
-        return deformed
+        return deformed, math.isfinite(output_check.RATIO_LIMIT)
     frame = depsgraph.scene.frame_current if depsgraph is not None and depsgraph.scene else None
     name = e.bone_names[bone] if 0 <= bone < len(e.bone_names) else f"bone {bone}"
     shown = "inf" if not np.isfinite(ratio) else f"{ratio:.1f}"
@@ -108,7 +117,7 @@ def _checked_output(e, obj, arm, deformed, pose, depsgraph):
     e.fallback_frames += 1
     if e.fallback is None:
         e.fallback = np.empty_like(e.rest)
-    return check.linear_blend(pose, e.fallback)
+    return check.linear_blend(pose, e.fallback), False
 
 
 def _bad_channels(arm_eval):
@@ -177,7 +186,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     except KeyError as err:
         bind_state.set_rebind(obj, _rest_message(obj, arm, e.rest_pose_problem(arm) or err.args[0]))
         return False
-    problem = checks.transforms_problem(obj_eval.matrix_world, obj.name, arm_eval.matrix_world, arm.name)
+    matrices = (obj_eval.matrix_world.copy(), arm_eval.matrix_world.copy())
+    problem = None if matrices == e.matrices_seen else \
+        checks.transforms_problem(matrices[0], obj.name, matrices[1], arm.name)
+    e.matrices_seen = None if problem else matrices  # the same matrices as last time: as fine as then
     if problem:
         e.refuse(obj, f"{problem}: {KEPT}")
         e.forget_writes()
@@ -210,7 +222,11 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     if render:
         targets = [modifier.carrier(obj, md, count, create=False, render=True)]
     else:
-        targets = modifier.carriers(obj, md, count)[:1]  # the render's is made too, for renders to come
+        targets = [modifier.carrier(obj, md, count)]
+        made_for = (md.as_pointer(), count)
+        if e.render_carrier_for != made_for:  # the render's is made too, for renders to come (once)
+            modifier.carrier(obj, md, count, create=True, render=True)
+            e.render_carrier_for = made_for
     if any(c is None for c, _ in targets):
         e.refuse(obj, "Sweep Deform has no place for this object's deformation yet: it is made at the next "
                       f"update in the viewport; {KEPT}")
@@ -239,13 +255,15 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refuse(obj, f"Unusable pose: {why}: {KEPT}")
         e.refused_key = key
         return False
-    deformed = _checked_output(e, obj, arm, deformed, pose, depsgraph)
+    deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets
         arrays.pack_frames(frames, linear, to_mesh)
         offsets = packed
-    if not np.isfinite(offsets).all():  # e.g. a nearly flat object whose inverse overflows
+    # Finite already when the check passed the frame (a non-finite vertex is beyond it) and
+    # nothing maps it; else, e.g. a nearly flat object whose inverse overflows, look.
+    if not (checked and to_mesh is None) and not np.isfinite(offsets).all():
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
         e.refused_key = key
         return False

@@ -62,24 +62,30 @@ def shows(obj, depsgraph, render):
 
 
 def evaluate_scene(scene, depsgraph, render=False):
-    """Updates every bound character of the scene. Returns how many were rewritten."""
+    """Updates every bound character of the scene. Returns how many were rewritten. A
+    character that does not show costs its armature's Edit Mode bookkeeping and shows()."""
     written = 0
     for obj in bound_objects.in_scene(scene):
-        if obj.sweep_deform.saved_for_blender_without_extension:
-            binding.restore_after_save(obj)  # appended, or made local: no load_post came
-        mode = obj.mode
-        if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
-            bind_state.check_topology(obj)
-        _modes[obj.name] = mode
-        arm = obj.sweep_deform.armature
-        if arm is not None:
-            key = ("armature", arm.name)
-            if _modes.get(key) == 'EDIT' and arm.mode != 'EDIT':
-                deformer_cache.forget_armature(arm)
-            _modes[key] = arm.mode
-        if not shows(obj, depsgraph, render):
-            continue  # costs nothing; evaluated when it shows again (that is an update too)
         try:
+            s = obj.sweep_deform
+            arm = s.armature
+            if arm is not None:  # (also while the mesh is hidden: its rest pose may be edited then)
+                key = ("armature", arm.name)
+                mode = arm.mode
+                if mode != _modes.get(key):
+                    if _modes.get(key) == 'EDIT':
+                        deformer_cache.forget_armature(arm)
+                    _modes[key] = mode
+            if not shows(obj, depsgraph, render) and _modes.get(obj.name) != 'EDIT':
+                continue  # costs nothing; evaluated when it shows again (that is an update too)
+            if s.saved_for_blender_without_extension:
+                binding.restore_after_save(obj)  # appended, or made local: no load_post came
+            else:
+                binding.sync_replaced_modifier(obj)  # the artist switched it on or off
+            mode = obj.mode
+            if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
+                bind_state.check_topology(obj)
+            _modes[obj.name] = mode
             written += frame.evaluate(obj, depsgraph, render)
         except ReferenceError:
             continue
@@ -136,6 +142,7 @@ def on_save_post(*_args):
 @persistent
 def on_load_post(*_args):
     deformer_cache.clear()
+    modifier.forget_identifiers()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
         modifier.node_group()  # bring an older layout up to date
@@ -153,6 +160,7 @@ def on_load_post(*_args):
 @persistent
 def on_undo_redo_post(*_args):
     deformer_cache.clear()
+    modifier.forget_identifiers()
 
 
 _HANDLERS = (

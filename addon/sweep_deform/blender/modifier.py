@@ -3,7 +3,7 @@
 the hidden *carrier* that brings it each frame's offsets.
 
 Blender's Python API cannot register a modifier type, so the modifier is built from what
-Blender offers. The node group (layout version 2) does::
+Blender offers. The node group (layout version 3) does::
 
     Carrier ─► Object Info (Original) ─► Sample Index (Position, by Index) ──┐
     Group Input ─► Set Position (Selection = counts match, Offset = ─────────┘)
@@ -38,7 +38,7 @@ GROUP_NAME = "Sweep Deform"
 MODIFIER_NAME = "Sweep Deform"
 #: Tag on the node group (an ID property) and its layout version.
 GROUP_TAG = "sweep_deform_group"
-GROUP_VERSION = 2
+GROUP_VERSION = 3
 #: The node group's object inputs: the carrier of the viewport and that of renders.
 CARRIER_INPUT = "Carrier"
 RENDER_CARRIER_INPUT = "Render Carrier"
@@ -72,6 +72,7 @@ def _int_inputs(node):
 
 
 def _build(ng):
+    _identifiers.clear()  # its sockets are made again
     ng.nodes.clear()
     ng.interface.clear()
     ng.interface.new_socket(name="Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
@@ -194,7 +195,16 @@ def _build(ng):
     total.operation = 'ADD'
     links.new(sample.outputs[0], total.inputs[0])
     links.new(combine.outputs['Vector'], total.inputs[1])
-    links.new(total.outputs['Vector'], setpos.inputs['Offset'])
+    # Only a carrier of FRAME_BLOCKS x the vertices needs the J part: the switch's condition is a
+    # single value, so Blender evaluates only the branch it picks (layout 3; in layout 2 the four
+    # samples of the J part, over zeros, made each evaluation of the mesh ~3x as long).
+    with_frames = nodes.new('GeometryNodeSwitch')
+    with_frames.input_type = 'VECTOR'
+    links.new(packed.outputs['Result'], with_frames.inputs['Switch'])
+    links.new(sample.outputs[0], with_frames.inputs['False'])
+    links.new(total.outputs['Vector'], with_frames.inputs['True'])
+    links.new(with_frames.outputs[0], setpos.inputs['Offset'])
+    with_frames.location = (100, -150)
     incoming.location, moved.location = (-400, -1600), (-150, -1600)
     combine.location, total.location = (50, -1100), (50, -200)
     links.new(setpos.outputs['Geometry'], remove.inputs['Geometry'])
@@ -211,9 +221,11 @@ def _build(ng):
 
 
 def node_group():
-    """The shared "Sweep Deform" node group, created or brought up to date."""
+    """The shared "Sweep Deform" node group of this file, created or brought up to date. A
+    group linked from a library is never changed (Blender would not keep it): its characters
+    keep the library's layout, which reads the same carriers."""
     for ng in bpy.data.node_groups:
-        if is_sweep_group(ng) and ng.bl_idname == 'GeometryNodeTree':
+        if is_sweep_group(ng) and ng.bl_idname == 'GeometryNodeTree' and ng.library is None:
             if ng.get(GROUP_TAG) != GROUP_VERSION:
                 _build(ng)
             return ng
@@ -260,12 +272,30 @@ def active(md, render):
 # ---- the modifier's carrier input ---------------------------------------------------------
 
 
+#: (node group pointer, its layout tag, render) -> the input's identifier: looked up once per
+#: group, not on every frame (the group's interface only changes with its layout); forgotten
+#: on load and undo, which reallocate the groups.
+_identifiers = {}
+
+
+def forget_identifiers():
+    _identifiers.clear()
+
+
 def _input_identifier(md, render=False):
     ng = md.node_group
-    for item in ng.interface.items_tree if ng is not None else ():
-        if getattr(item, "in_out", None) == 'INPUT' and item.name == INPUTS[render]:
-            return item.identifier
-    return None
+    if ng is None:
+        return None
+    key = (ng.as_pointer(), ng.get(GROUP_TAG), render)
+    found = _identifiers.get(key)
+    if found is None:
+        for item in ng.interface.items_tree:
+            if getattr(item, "in_out", None) == 'INPUT' and item.name == INPUTS[render]:
+                found = item.identifier
+                break
+        if found is not None:
+            _identifiers[key] = found
+    return found
 
 
 def _input_slot(md, identifier):

@@ -101,8 +101,12 @@ class SweepDeformJoint(bpy.types.PropertyGroup):
 
 
 class SweepDeformSettings(bpy.types.PropertyGroup):
+    # The object pointers are LIBRARY_OVERRIDABLE (and so is Object.sweep_deform, below): in a
+    # library override they then point at the overrides of the hierarchy after a reload too.
+    # Without it a reopened file got them back from the library: the linked armature, in no
+    # scene and never posed (test_library.py::test_library_override_deforms).
     armature: PointerProperty(
-        name="Armature", type=bpy.types.Object, poll=_is_armature,
+        name="Armature", type=bpy.types.Object, poll=_is_armature, override={'LIBRARY_OVERRIDABLE'},
         description="Armature whose pose drives the sweeps (bound to; re-bind after changing it)")
     use_volume_preservation: BoolProperty(
         name="Preserve Volume", default=True, update=_settings_changed,
@@ -154,12 +158,19 @@ class SweepDeformSettings(bpy.types.PropertyGroup):
     # What the binding was made with, for the messages when it is gone (issue 15).
     bound_armature: StringProperty(description="Name of the armature object at binding")
     bound_armature_data: StringProperty(description="Name of the armature's data at binding")
-    bound_armature_object: PointerProperty(type=bpy.types.Object, description="The armature at binding")
+    bound_armature_object: PointerProperty(type=bpy.types.Object, description="The armature at binding",
+                                           override={'LIBRARY_OVERRIDABLE'})
     # The Armature modifier this one replaces, and how it was before we disabled it.
     armature_modifier: StringProperty()
     armature_modifier_viewport: BoolProperty(default=True)
     armature_modifier_render: BoolProperty(default=True)
-    armature_modifier_object: PointerProperty(type=bpy.types.Object)
+    armature_modifier_object: PointerProperty(type=bpy.types.Object, override={'LIBRARY_OVERRIDABLE'})
+    # While it is off, its Vertex Groups and Bone Envelopes are unticked (a switched-off
+    # Armature modifier still makes every pose change evaluate the mesh): the artist's values,
+    # given back whenever it is on (binding.sync_replaced_modifier).
+    armature_modifier_inputs_kept: BoolProperty(default=False)
+    armature_modifier_vertex_groups: BoolProperty(default=True)
+    armature_modifier_envelopes: BoolProperty(default=False)
     # A file saved while bound has the Armature modifier on and Sweep Deform off, for Blender
     # without the extension (binding.prepare_for_save); the extension restores these on load.
     saved_for_blender_without_extension: BoolProperty(default=False)
@@ -173,7 +184,7 @@ classes = (SweepDeformCorrection, SweepDeformJoint, SweepDeformSettings)
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
-    bpy.types.Object.sweep_deform = PointerProperty(type=SweepDeformSettings)
+    bpy.types.Object.sweep_deform = PointerProperty(type=SweepDeformSettings, override={'LIBRARY_OVERRIDABLE'})
 
 
 def unregister():

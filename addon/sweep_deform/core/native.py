@@ -27,7 +27,7 @@ import numpy as np
 #: The library file name this add-on version ships and loads (never the bare SONAME).
 LIBRARY_FILE = "libsweepdeform.so.0.1.0"
 #: The ``SD_ABI_VERSION`` this binding was written against.
-ABI_VERSION = 2
+ABI_VERSION = 3
 
 SD_OK = 0
 STATUS_NAMES = {
@@ -87,6 +87,13 @@ class _AnatomyT(_Opaque):
 
 
 AnatomyP = ctypes.POINTER(_AnatomyT)
+
+
+class _OutputCheckT(_Opaque):
+    pass
+
+
+OutputCheckP = ctypes.POINTER(_OutputCheckT)
 
 _array_types = {}
 
@@ -168,6 +175,13 @@ SIGNATURES = {
     "sd_deform_frames": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT, F32_OUT]),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
+    # the output check (issue 15)
+    "sd_output_check_create": (Status, [c_int32, F32, c_int32, F32, F32, c_int32, I32, F32, c_float,
+                                        ctypes.POINTER(OutputCheckP)]),
+    "sd_output_check_destroy": (None, [OutputCheckP]),
+    "sd_output_check_run": (Status, [OutputCheckP, c_int32, F32, c_int32, F32, c_float, P_INT32, P_FLOAT, P_INT32,
+                                     P_INT32, F32_OUT]),
+    "sd_output_check_linear_blend": (Status, [OutputCheckP, c_int32, F32, c_int32, F32_OUT]),
     # measurements (reports and tests)
     "sd_measure_volume": (Status, [c_int32, F32, c_int32, I32, P_DOUBLE]),
     "sd_measure_intersections": (Status, [c_int32, F32, c_int32, I32, c_int32, I32, P_INT64]),
@@ -614,6 +628,63 @@ class Deformer(_Handle):
         """Replaces the key-ellipse corrections of the deformer's rig (as Rig.set_corrections)."""
         args = _correction_arrays(sweeps, keys, angles, values, muted)
         _call("sd_deformer_set_rig_corrections", self.ptr, *args)
+
+
+class OutputCheck(_Handle):
+    """The core's bound on a frame's output (sd_output_check_*, issue 15): each vertex's
+    distance to the nearer of its two heaviest skin bones against its rest distance, and the
+    linear blend skinning shown instead for a frame beyond the bound. Read-only in the core,
+    so any thread may use it; its result holders here serve one call at a time (the cache
+    entry's lock)."""
+
+    _destroy = "sd_output_check_destroy"
+
+    def __init__(self, rest_positions, rest_pose, bone_lengths, skin_ids, skin_weights, floor_share):
+        """rest_positions (V,3) and rest_pose #B*16 (column-major) in armature space;
+        bone_lengths #B; skin_ids / skin_weights (V,S) (-1: unused slot); floor_share in [0, 1]."""
+        rest_positions = _f32(rest_positions).reshape(-1)
+        V = rest_positions.size // 3
+        _expect_size("rest_positions", rest_positions, 3 * V)
+        rest_pose, bone_lengths = _f32(rest_pose).ravel(), _f32(bone_lengths).ravel()
+        B = bone_lengths.size
+        _expect_size("rest_pose", rest_pose, 16 * B)
+        ids, weights = _i32(skin_ids).reshape(V, -1), _f32(skin_weights).reshape(V, -1)
+        if ids.shape != weights.shape:
+            raise ValueError("skin ids and weights must have the same shape")
+        S = ids.shape[1]
+        out = OutputCheckP()
+        _call("sd_output_check_create", V, rest_positions, B, rest_pose, bone_lengths, S, ids if S else None,
+              weights if S else None, float(floor_share), ctypes.byref(out))
+        super().__init__(out)
+        self.vertex_count, self.bone_count = V, B
+        self._beyond, self._vertex, self._bone = ctypes.c_int32(), ctypes.c_int32(), ctypes.c_int32()
+        self._worst = ctypes.c_float()
+        self._refs = (ctypes.byref(self._beyond), ctypes.byref(self._worst), ctypes.byref(self._vertex),
+                      ctypes.byref(self._bone))
+
+    def _frame(self, positions, pose):
+        if pose.dtype != np.float32 or pose.size != 16 * self.bone_count or not pose.flags.c_contiguous:
+            raise ValueError(f"pose must be {16 * self.bone_count} contiguous float32 values")
+        if positions.dtype != np.float32 or positions.size != 3 * self.vertex_count \
+                or not positions.flags.c_contiguous:
+            raise ValueError(f"positions must be {3 * self.vertex_count} contiguous float32 values")
+
+    def run(self, positions, pose, ratio_limit, ratios=None):
+        """(vertices beyond ratio_limit, the frame's largest ratio, its vertex, its heaviest
+        bone) for `positions` (V,3) float32 of `pose` (#B*16 float32); `ratios` (#V float32, or
+        None) receives every vertex's ratio."""
+        self._frame(positions, pose)
+        if ratios is not None and ratios.size != self.vertex_count:
+            raise ValueError(f"ratios must hold {self.vertex_count} values")
+        _call("sd_output_check_run", self.ptr, self.bone_count, pose, self.vertex_count, positions,
+              float(ratio_limit), *self._refs, ratios)
+        return self._beyond.value, self._worst.value, self._vertex.value, self._bone.value
+
+    def linear_blend(self, pose, out):
+        """The linear blend skinning of the rest positions by `pose` into `out` (V,3) float32."""
+        self._frame(out, pose)
+        _call("sd_output_check_linear_blend", self.ptr, self.bone_count, pose, self.vertex_count, out)
+        return out
 
 
 # ---- anatomical effects (Sect. 4.3, 4.4) ---------------------------------------------

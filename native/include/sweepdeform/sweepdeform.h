@@ -32,7 +32,8 @@
  *    counts, indices in range, finite numbers, unit quaternions (|q| within 1e-3 of 1),
  *    half-axes > 0.
  *  - Handles are opaque. A handle may be used from one thread at a time; different
- *    handles may be used concurrently.
+ *    handles may be used concurrently (an sd_output_check, read-only after creation, from
+ *    any number of threads at once).
  */
 #ifndef SWEEPDEFORM_H
 #define SWEEPDEFORM_H
@@ -49,9 +50,10 @@ extern "C" {
 #define SD_API __attribute__((visibility("default")))
 #endif
 
-/* Bumped whenever a signature or a struct layout of this header changes (2: the fitting's
- * report is copied into the caller's buffer; joint kinds and parameters renamed). */
-#define SD_ABI_VERSION 2
+/* Bumped whenever a signature or a struct layout of this header changes, or functions are
+ * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
+ * parameters renamed; 3: the output check, sd_output_check_*). */
+#define SD_ABI_VERSION 3
 
 typedef enum sd_status {
     SD_OK = 0,
@@ -205,6 +207,69 @@ SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sw
 /* Controller iterations used by each sweep in the last frame (#S). */
 SD_API sd_status sd_deformer_get_volume_iterations(const sd_deformer* deformer, int32_t sweep_count,
                                                    int32_t* iterations);
+
+/* ---- the output check (issue 15) ---------------------------------------------------- */
+
+/*
+ * A bound on each frame's output: a sweep moves a vertex with its limb, so the vertex's
+ * distance to the bones it is skinned to changes at a joint, but not by much. A frame with a
+ * vertex farther from its posed bones than `ratio_limit` times its rest distance (shards off
+ * the body, a non-finite result) is a pose the sweeps cannot follow; a caller shows the
+ * linear blend skinning of the same pose instead (sd_output_check_linear_blend).
+ *
+ * Per vertex: its two heaviest skin bones (one bone: that bone twice; the earlier slot among
+ * equal weights), each as a segment from its head along its matrix's Y axis for its rest
+ * length (Blender's bones); the vertex's distance is to the nearer of the two; its rest
+ * distance is that distance for the rest positions and the rest pose, raised to
+ * floor_share x the rest positions' bounding-box diagonal when below it. The ratio is
+ * distance / rest distance (0 on the bone, +inf for a non-finite vertex); a vertex without
+ * skin weights is never beyond (ratio 0).
+ *
+ * The object is read-only after creation: unlike the other handles it may be used from
+ * several threads at once.
+ */
+typedef struct sd_output_check sd_output_check;
+
+/*
+ * Creates the check of one bound mesh.
+ *  vertex_count     V >= 1; rest_positions #V*3, the rest positions the frames start from
+ *  bone_count       B >= 1; rest_pose #B*16 (column-major, invertible), bone_lengths #B (> 0)
+ *  skin_slots       S in 0..64; skin_bones #V*S (-1 = unused slot), skin_weights #V*S (>= 0);
+ *                   NULL when S = 0 (then no vertex is ever beyond)
+ *  floor_share      in [0, 1]: the smallest rest distance, as a share of the body's diagonal
+ * All in one space (the armature space of the poses given later).
+ */
+SD_API sd_status sd_output_check_create(int32_t vertex_count, const float* rest_positions, int32_t bone_count,
+                                        const float* rest_pose, const float* bone_lengths, int32_t skin_slots,
+                                        const int32_t* skin_bones, const float* skin_weights, float floor_share,
+                                        sd_output_check** out_check);
+SD_API void sd_output_check_destroy(sd_output_check* check);
+
+/*
+ * Checks one frame: `positions` (#V*3, deformed; non-finite values allowed: such a vertex is
+ * beyond) for `pose` (#B*16, finite, as for sd_deform) against ratio_limit (finite, > 0).
+ *  out_beyond        the number of vertices whose ratio is above ratio_limit: 0 = the frame
+ *                    is within the bound
+ *  out_worst_ratio   the largest ratio among those vertices (+inf for a non-finite one), 0
+ *                    when none (a tiny ratio_limit, e.g. 1e-30, gives the frame's largest)
+ *  out_worst_vertex  its vertex (the lowest index among equal ratios), -1 when none
+ *  out_worst_bone    that vertex's heaviest skin bone, -1 when none
+ *  out_ratios        #V, every vertex's ratio
+ * Any output may be NULL. Parallel over vertices; the result does not depend on the number
+ * of threads.
+ */
+SD_API sd_status sd_output_check_run(const sd_output_check* check, int32_t bone_count, const float* pose,
+                                     int32_t vertex_count, const float* positions, float ratio_limit,
+                                     int32_t* out_beyond, float* out_worst_ratio, int32_t* out_worst_vertex,
+                                     int32_t* out_worst_bone, float* out_ratios);
+
+/*
+ * The fallback for a frame beyond the bound: the linear blend skinning of the rest positions
+ * by `pose` (#B*16) with the skin weights (normalised per vertex), into out_positions (#V*3);
+ * a vertex without skin weights stays at rest.
+ */
+SD_API sd_status sd_output_check_linear_blend(const sd_output_check* check, int32_t bone_count, const float* pose,
+                                              int32_t vertex_count, float* out_positions);
 
 /* ---- measurements (reports and tests) ---------------------------------------------- */
 
