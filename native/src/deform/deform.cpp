@@ -305,9 +305,9 @@ void Deformer::deform(const float* pose, float* out) {
         pose_.set(rig_.skeleton, pose);
         prepare_sweeps(pose_);
         bones_ = bone_affines(pose_);
-        bone_rotations_.resize(4 * bones_.size());
-        for (size_t b = 0; b < bones_.size(); ++b) bone_rotation(bones_[b].m, &bone_rotations_[4 * b]);
-        kernel_.run(half_spans_.data(), bones_.data(), bone_rotations_.data(), binding_, out, rotations_);
+        bone_frames_.resize(bones_.size());
+        for (size_t b = 0; b < bones_.size(); ++b) bone_frames_[b] = bone_frame(bones_[b].m);
+        kernel_.run(half_spans_.data(), bones_.data(), bone_frames_.data(), binding_, out, rotations_);
     });
 }
 

@@ -22,6 +22,18 @@ inline void rotate_by_unit_quaternion(const float* q, const float* v, float* out
     out[2] = v[2] + 2.0f * (q[3] * cz + ez);
 }
 
+/// A bone's map as a dual quaternion in armature space, once per frame: its rotation q (the
+/// 3x3 part with normalised columns) and ½ (T, 0) q for its translation T. About a vertex V
+/// the same map has the dual part d + (q.xyz × V, 0), which is how FrameBlend takes it
+/// (add_bone). A bone that scales or shears is not rigid: its vertices use where M V puts
+/// them instead (FrameBlend::add).
+struct BoneFrame {
+    float q[4];
+    float d[4];
+    bool rigid;
+};
+BoneFrame bone_frame(const float m[3][4]);
+
 /// Accumulates w × (q, ½ t q), on q's hemisphere of the first frame added (w > 0). Dual quaternion
 /// blending does not depend on the coordinates it is done in, so it is done with V at the
 /// origin: the map x -> q (x - V) + p is then x -> q x + t with t = p - V, and where the
@@ -53,6 +65,15 @@ public:
         }
     }
 
+    /// A rigid bone's frame (bone_frame), weighted, about V.
+    void add_bone(float w, const BoneFrame& f, const float* v) {
+        const float* u = f.q;
+        const float real[4] = {w * f.q[0], w * f.q[1], w * f.q[2], w * f.q[3]};
+        const float dual[4] = {w * (f.d[0] + u[1] * v[2] - u[2] * v[1]), w * (f.d[1] + u[2] * v[0] - u[0] * v[2]),
+                               w * (f.d[2] + u[0] * v[1] - u[1] * v[0]), w * f.d[3]};
+        add_weighted(real, dual);
+    }
+
     /// How far the blended frame moves V, and (if wanted) its unit rotation. False if the
     /// frames cancel (opposite rotations of equal weight): the caller keeps the convex
     /// combination.
@@ -77,9 +98,5 @@ private:
     float dual_[4] = {0, 0, 0, 0};
     bool started_ = false;
 };
-
-/// The rotation of a bone's 3x3 linear part (columns normalised first: a scaled bone turns
-/// its skin as the unscaled one), as a unit quaternion (x, y, z, w).
-void bone_rotation(const float m[3][4], float* q);
 
 }  // namespace sd

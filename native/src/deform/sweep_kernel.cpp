@@ -166,7 +166,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     for (size_t i = 0; i < n; ++i) rows_[i] = slot_of[i];
 }
 
-void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const float* bone_rotations,
+void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
                       const Binding& b, float* out, float* rotations) {
     const FrameSlots slots{u_.data(),  w_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(), sin_.data(),
                            rx_.data(), ry_.data(), rz_.data(), rw_.data(), vx_.data(), vy_.data(),  vz_.data(),
@@ -190,14 +190,13 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 // Frames blended among themselves, weighted by their share; points added.
                 FrameBlend blend;
                 const float* x = rest + 3 * v;
-                float framed_lin[3] = {0.0f, 0.0f, 0.0f};
                 for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                     const uint32_t s = rows_[i];
-                    float* sum = point_slot_[s] ? p : framed_lin;
-                    sum[0] += px_[s];
-                    sum[1] += py_[s];
-                    sum[2] += pz_[s];
-                    if (!point_slot_[s]) {
+                    if (point_slot_[s]) {
+                        p[0] += px_[s];
+                        p[1] += py_[s];
+                        p[2] += pz_[s];
+                    } else {
                         const float real[4] = {qx_[s], qy_[s], qz_[s], qw_[s]},
                                     dual[4] = {dx_[s], dy_[s], dz_[s], dw_[s]};
                         blend.add_weighted(real, dual);
@@ -205,21 +204,33 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 }
                 for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {
                     const BoneInfluence& in = b.bone_influences[i];
-                    float at[3] = {0.0f, 0.0f, 0.0f};
-                    bones[in.bone].apply_add(1.0f, rest + 3 * v, at);
-                    float* sum = point_bone_[i] ? p : framed_lin;
-                    for (int k = 0; k < 3; ++k) sum[k] += in.weight * at[k];
-                    if (!point_bone_[i]) {
+                    const BoneFrame& f = bone_frames[in.bone];
+                    if (point_bone_[i]) {
+                        bones[in.bone].apply_add(in.weight, x, p);
+                    } else if (f.rigid) {
+                        blend.add_bone(in.weight, f, x);
+                    } else {
+                        float at[3] = {0.0f, 0.0f, 0.0f};
+                        bones[in.bone].apply_add(1.0f, x, at);
                         const float t[3] = {at[0] - x[0], at[1] - x[1], at[2] - x[2]};
-                        blend.add(in.weight, bone_rotations + 4 * in.bone, t);
+                        blend.add(in.weight, f.q, t);
                     }
                 }
                 float q[4] = {0.0f, 0.0f, 0.0f, 1.0f}, move[3];
                 const float share = row_blends_[v];
-                if (blend.apply(move, q))
+                if (blend.apply(move, q)) {
                     for (int k = 0; k < 3; ++k) p[k] += share * (x[k] + move[k]);
-                else  // the frames cancel: their convex combination
-                    for (int k = 0; k < 3; ++k) p[k] += framed_lin[k];
+                } else {  // the frames cancel: the convex combination of every influence
+                    p[0] = p[1] = p[2] = 0.0f;
+                    for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
+                        const uint32_t s = rows_[i];
+                        p[0] += px_[s];
+                        p[1] += py_[s];
+                        p[2] += pz_[s];
+                    }
+                    for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
+                        bones[b.bone_influences[i].bone].apply_add(b.bone_influences[i].weight, x, p);
+                }
                 if (rotations)
                     for (int k = 0; k < 4; ++k) rotations[4 * static_cast<size_t>(v) + k] = q[k];
             } else {

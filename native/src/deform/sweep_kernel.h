@@ -11,6 +11,7 @@
 #pragma once
 
 #include "bind/bind.h"
+#include "deform/frame_blend.h"
 #include "deform/linear_blend_skinning.h"
 
 #include <array>
@@ -41,9 +42,9 @@ public:
 
     /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v] for a vertex of one influence, the
     /// rigid-frame blend of the same for a vertex of several (#V*3).
-    /// @param bone_rotations  per bone, the unit rotation of M_b (x y z w)
+    /// @param bone_frames     per bone, M_b as a dual quaternion (frame_blend.h)
     /// @param rotations       optional, #V*4: each blended vertex's rotation (others untouched)
-    void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const float* bone_rotations,
+    void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
              const Binding& binding, float* out, float* rotations = nullptr);
 
     /// The weight of vertex v's influences blended as frames (0: all blended as points).
