@@ -47,7 +47,8 @@ void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const f
 /// evaluate_batch, so it vectorises too (sqrt without errno: -fno-math-errno).
 struct FrameSlots {
     const float* __restrict u, * __restrict w, * __restrict x, * __restrict y, * __restrict z, * __restrict cos, * __restrict sin, * __restrict rx, * __restrict ry, * __restrict rz, * __restrict rw, * __restrict vx, * __restrict vy, * __restrict vz;
-    float* __restrict px, * __restrict py, * __restrict pz, * __restrict qx, * __restrict qy, * __restrict qz, * __restrict qw, * __restrict dx, * __restrict dy, * __restrict dz, * __restrict dw;
+    float* __restrict px, * __restrict py, * __restrict pz;
+    float* __restrict frames;  // 8 per slot: w q, then ½ w (p - V) q (one cache line per slot)
 };
 
 void evaluate_frame_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const FrameSlots& f) {
@@ -80,14 +81,15 @@ void evaluate_frame_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, c
         const float qw = wn * (aw * rw - ax * rx - ay * ry - az * rz);
         // ½ (t, 0) (w q), t = p - V
         const float tx = 0.5f * (pxv - f.vx[i]), ty = 0.5f * (pyv - f.vy[i]), tz = 0.5f * (pzv - f.vz[i]);
-        f.dx[i] = tx * qw + ty * qz - tz * qy;
-        f.dy[i] = -tx * qz + ty * qw + tz * qx;
-        f.dz[i] = tx * qy - ty * qx + tz * qw;
-        f.dw[i] = -(tx * qx + ty * qy + tz * qz);
-        f.qx[i] = qx;
-        f.qy[i] = qy;
-        f.qz[i] = qz;
-        f.qw[i] = qw;
+        float* o = f.frames + 8 * static_cast<size_t>(i);
+        o[0] = qx;
+        o[1] = qy;
+        o[2] = qz;
+        o[3] = qw;
+        o[4] = tx * qw + ty * qz - tz * qy;
+        o[5] = -tx * qz + ty * qw + tz * qx;
+        o[6] = tx * qy - ty * qx + tz * qw;
+        o[7] = -(tx * qx + ty * qy + tz * qz);
         f.px[i] = w * pxv;
         f.py[i] = w * pyv;
         f.pz[i] = w * pzv;
@@ -128,9 +130,9 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
                      [&](uint32_t a, uint32_t c) { return blended[a] != blended[c] ? blended[c] : half[a] < half[c]; });
 
     std::vector<uint32_t> slot_of(n);
-    for (auto* v : {&u_,  &w_,  &x_,  &y_,  &z_,  &cos_, &sin_, &px_, &py_, &pz_, &rx_, &ry_, &rz_,
-                    &rw_, &qx_, &qy_, &qz_, &qw_, &dx_,  &dy_,  &dz_, &dw_, &vx_, &vy_, &vz_})
+    for (auto* v : {&u_, &w_, &x_, &y_, &z_, &cos_, &sin_, &px_, &py_, &pz_, &rx_, &ry_, &rz_, &rw_, &vx_, &vy_, &vz_})
         v->resize(n);
+    frames_.resize(8 * n);
     std::vector<int32_t> vertex_of(n);
     for (int v = 0; v < V; ++v)
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) vertex_of[i] = v;
@@ -171,10 +173,9 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
 
 void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
                       const Binding& b, float* out, float* rotations) {
-    const FrameSlots slots{u_.data(),  w_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(), sin_.data(),
-                           rx_.data(), ry_.data(), rz_.data(), rw_.data(), vx_.data(), vy_.data(),  vz_.data(),
-                           px_.data(), py_.data(), pz_.data(), qx_.data(), qy_.data(), qz_.data(),  qw_.data(),
-                           dx_.data(), dy_.data(), dz_.data(), dw_.data()};
+    const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(),
+                           sin_.data(), rx_.data(), ry_.data(), rz_.data(), rw_.data(), vx_.data(),
+                           vy_.data(),  vz_.data(), px_.data(), py_.data(), pz_.data(), frames_.data()};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches_.size()), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Batch& bt = batches_[i];
@@ -200,9 +201,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                         p[1] += py_[s];
                         p[2] += pz_[s];
                     } else {
-                        const float real[4] = {qx_[s], qy_[s], qz_[s], qw_[s]},
-                                    dual[4] = {dx_[s], dy_[s], dz_[s], dw_[s]};
-                        blend.add_weighted(real, dual);
+                        const float* o = &frames_[8 * static_cast<size_t>(s)];
+                        blend.add_weighted(o, o + 4);
                     }
                 }
                 for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {

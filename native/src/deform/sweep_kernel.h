@@ -59,8 +59,8 @@ private:
     std::vector<float> u_, w_, x_, y_, z_, cos_, sin_;  // influences sorted by half-span
     std::vector<float> rx_, ry_, rz_, rw_;              // Q_rest(u)^-1 (frame-blended slots)
     std::vector<float> px_, py_, pz_;                   // per-frame weighted contributions
-    std::vector<float> qx_, qy_, qz_, qw_;              // per-frame w q (frame-blended slots)
-    std::vector<float> dx_, dy_, dz_, dw_;              // per-frame ½ w (p - V) q (frame-blended)
+    std::vector<float> frames_;                         // per-frame, 8 per frame-blended slot:
+                                                        // w q, ½ w (p - V) q
     std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
     std::vector<float> row_blends_;                     // per vertex: its frame share
     std::vector<uint8_t> point_slot_, point_bone_;      // joins as a point (sorted slot / bone inf.)
