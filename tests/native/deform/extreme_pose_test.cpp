@@ -534,9 +534,10 @@ TEST_P(ExtremePoses, NoFrameBeyondTheBound) {
     search(path, GetParam().weld, GetParam().file);
 }
 
+// The refined MakeHuman male (…_subdiv1.glb, 53,514 vertices: 7 s here, a minute under the
+// sanitizers) behaves as the 13K one; search it with SWEEPDEFORM_EXTREME_CHARACTER.
 INSTANTIATE_TEST_SUITE_P(Humans, ExtremePoses,
-                         ::testing::Values(Case{"mh_male_game_engine.glb", false}, Case{"CesiumMan.glb", true},
-                                           Case{"mh_male_game_engine_subdiv1.glb", false}),
+                         ::testing::Values(Case{"mh_male_game_engine.glb", false}, Case{"CesiumMan.glb", true}),
                          [](const ::testing::TestParamInfo<Case>& info) {
                              std::string n = info.param.file;
                              n = n.substr(0, n.find('.'));
