@@ -44,6 +44,10 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
   if (ext == ".ply") {
     // The whole header is checked here: OpenMesh 9's PLY reader loops forever on a header
     // without "end_header" or with a property type it does not know (found by fuzz_mesh_file).
+    // OpenMesh reads the header word by word, this check line by line: each line must hold
+    // exactly its words, or a missing property name makes OpenMesh take the next line's
+    // "end_header" for it and loop forever past the end of the file (fuzz_mesh_file's 600 s
+    // pass, regress_ply_property_without_name).
     static const std::vector<std::string> kTypes = {"char",  "uchar",  "short",   "ushort", "int",   "uint",
                                                     "float", "double", "int8",    "uint8",  "int16", "uint16",
                                                     "int32", "uint32", "float32", "float64"};
@@ -74,7 +78,12 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
         if (key != "ply") bad(1, "the file does not start with 'ply'");
         continue;
       }
+      std::string extra;
+      const auto words_end = [&]() {  // nothing may follow the line's last word
+        if (ss >> extra) bad(lines, "'" + extra.substr(0, 24) + "' after the end of '" + line.substr(0, 60) + "'");
+      };
       if (key == "end_header") {
+        words_end();
         ended = true;
       } else if (key == "property" && !in_element) {  // OpenMesh crashes on it (fuzz_mesh_file)
         bad(lines, "a property before any element");
@@ -82,6 +91,7 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
         in_element = true;
         std::string kind, count;
         ss >> kind >> count;
+        words_end();
         if (kind == "vertex")
           vertices = number(count, "vertex");
         else if (kind == "face")
@@ -89,10 +99,13 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
         else
           number(count, kind.substr(0, 24).c_str());
       } else if (key == "property") {
-        std::string type, a, b;
-        ss >> type >> a >> b;
+        std::string type, a, b, name;
+        ss >> type >> a;
+        if (type == "list") ss >> b >> name;
         if (type == "list" ? !(is_type(a) && is_type(b)) : !is_type(type))
           bad(lines, "unknown property type in '" + line.substr(0, 60) + "'");
+        if ((type == "list" ? name : a).empty()) bad(lines, "a property without a name: '" + line.substr(0, 60) + "'");
+        words_end();
       } else if (key != "format" && key != "comment" && key != "obj_info" && !key.empty()) {
         bad(lines, "unknown keyword '" + key.substr(0, 24) + "'");
       }

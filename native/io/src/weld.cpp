@@ -1,5 +1,6 @@
 #include "weld.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 #include <unordered_map>
@@ -14,6 +15,16 @@ int32_t find_root(std::vector<int32_t>& parent, int32_t i) {
     i = p;
   }
   return i;
+}
+
+/// The grid cell of a coordinate, floor(x / cell), clamped to ±2^62 and 0 for a NaN, so that
+/// the conversion is defined for any float: a glTF vertex at -8e24 with a cell of a micrometre
+/// was undefined behaviour (found by fuzz_gltf). Clamped points share a cell; the exact
+/// distance test below still decides.
+int64_t cell_of(double x, double cell) {
+  const double c = std::floor(x / cell);
+  if (!(c == c)) return 0;
+  return static_cast<int64_t>(std::clamp(c, -0x1p62, 0x1p62));
 }
 
 }  // namespace
@@ -35,9 +46,7 @@ std::vector<int32_t> weld_map(const std::vector<float>& positions, double tolera
   const double tol2 = tolerance * tolerance;
   for (size_t i = 0; i < nv; ++i) {
     const float* p = &positions[3 * i];
-    const int64_t cx = static_cast<int64_t>(std::floor(p[0] / cell));
-    const int64_t cy = static_cast<int64_t>(std::floor(p[1] / cell));
-    const int64_t cz = static_cast<int64_t>(std::floor(p[2] / cell));
+    const int64_t cx = cell_of(p[0], cell), cy = cell_of(p[1], cell), cz = cell_of(p[2], cell);
     for (int64_t dx = -1; dx <= 1; ++dx)
       for (int64_t dy = -1; dy <= 1; ++dy)
         for (int64_t dz = -1; dz <= 1; ++dz) {
@@ -45,7 +54,8 @@ std::vector<int32_t> weld_map(const std::vector<float>& positions, double tolera
           for (auto it = range.first; it != range.second; ++it) {
             const float* q = &positions[3 * static_cast<size_t>(it->second)];
             const double ex = p[0] - q[0], ey = p[1] - q[1], ez = p[2] - q[2];
-            if (ex * ex + ey * ey + ez * ez > tol2) continue;  // also filters hash collisions
+            // Also filters hash collisions, and never welds a NaN (validate() refuses it later).
+            if (!(ex * ex + ey * ey + ez * ez <= tol2)) continue;
             const int32_t a = find_root(parent, static_cast<int32_t>(i));
             const int32_t b = find_root(parent, it->second);
             if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);

@@ -464,6 +464,17 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
       {"no_end.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\n", "the header has no end_header"},
       {"bad_type.ply", ply_head + "1\nproperty lroperty float y\nend_header\n0 0 0\n",
        "PLY header line 4: unknown property type"},
+      // OpenMesh took "end_header" for the missing name and looped forever past the end of the
+      // file (fuzz_mesh_file's 600 s pass; the input itself, corpus regress_ply_property_without_name).
+      {"no_name.ply",
+       ply_head + "3\nproperty float\nend_header\n0 0 0\n1 0 0\n0 1 0\x1a"
+                  "60.2 02\n",
+       "PLY header line 4: a property without a name: 'property float'"},
+      {"no_list_name.ply",
+       ply_head + "1\nproperty float x\nelement face 1\nproperty list uchar int\nend_header\n0\n3 0 0 0\n",
+       "PLY header line 6: a property without a name"},
+      {"more_words.ply", ply_head + "1 end_header\nproperty float x\nend_header\n0\n",
+       "PLY header line 3: 'end_header' after the end of 'element vertex 1 end_header'"},
   };
   for (const auto& [name, content, says] : refused) {
     e = error(name, content);

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <stdexcept>
 #include <string>
@@ -384,9 +385,11 @@ class TinyGltfWriter {
 };
 
 /// external_buffer: the buffer goes into this file beside the .gltf instead of a data: URI.
-std::string write_synthetic_gltf(const std::string& name, int mode_of_b, const std::string& external_buffer = "") {
+/// positions_a: primitive A's three vertices (x, y, z each).
+std::string write_synthetic_gltf(const std::string& name, int mode_of_b, const std::string& external_buffer = "",
+                                 const std::vector<float>& positions_a = {0, 0, 0, 1, 0, 0, 0.1f, 0.4f, 0}) {
   TinyGltfWriter w;
-  const int pos_a = w.add(std::vector<float>{0, 0, 0, 1, 0, 0, 0.1f, 0.4f, 0}, 5126, "VEC3", 3);
+  const int pos_a = w.add(positions_a, 5126, "VEC3", 3);
   const int idx_a = w.add(std::vector<uint32_t>{0, 1, 2}, 5125, "SCALAR", 3);
   const int jnt_a = w.add(std::vector<uint8_t>{0, 1, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0}, 5121, "VEC4", 3);
   const int wgt_a = w.add(std::vector<uint8_t>{255, 0, 0, 0, 51, 204, 0, 0, 0, 0, 0, 0}, 5121, "VEC4", 3, true);
@@ -540,6 +543,32 @@ TEST(GltfLoader, RefusesCountsBeyondTheFile) {
       EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
     }
   }
+}
+
+/// Welding a glTF whose vertices lie far from the origin, or are not numbers: the weld's grid
+/// cell of a vertex at -8e24 (1e-6 of the bounding box wide) was undefined behaviour (fuzz_gltf's
+/// 600 s pass, regress_weld_huge_coordinate; the sanitizer build catches it), and a NaN vertex
+/// passed the distance test (NaN > tolerance is false): only its hash cell kept it from being
+/// welded away before validate() saw it.
+TEST(GltfLoader, WeldFarAndNonFiniteVertices) {
+  const std::vector<uint8_t> b = file_bytes(SWEEPDEFORM_FUZZ_CORPUS_DIR "/fuzz_gltf/regress_weld_huge_coordinate");
+  ASSERT_GT(b.size(), 1u);
+  sd::io::GltfLoadOptions o;
+  o.weld = true;
+  try {
+    const Character c = sd::io::load_gltf_character_from_memory(b.data() + 1, b.size() - 1, "far", o);
+    EXPECT_EQ(sd::io::validate(c), "");
+  } catch (const std::runtime_error&) {  // refusing it is fine too; undefined behaviour is not
+  }
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::string path = write_synthetic_gltf("sweepdeform_io_nan.gltf", 4, "", {0, 0, 0, 1, 0, 0, nan, 0.4f, 0});
+  try {
+    sd::io::load_gltf_character(path, o);
+    ADD_FAILURE() << "a NaN vertex should be refused, not welded away";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("inconsistent character"), std::string::npos) << e.what();
+  }
+  fs::remove(path);
 }
 
 /// Two bones: a root at the origin and a child 1 unit up its parent's Y, with channels
