@@ -6,12 +6,15 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
+#include <vector>
 
 namespace sd::io {
 namespace {
@@ -22,6 +25,112 @@ std::string extension(const std::string& path) {
   std::string e = std::filesystem::path(path).extension().string();
   std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return std::tolower(c); });
   return e;
+}
+
+/// One element of a PLY header: its name, count and properties (a list's count type in
+/// `count_type`).
+struct PlyElement {
+  struct Property {
+    bool list = false;
+    std::string count_type, type;
+  };
+  std::string name;
+  long long count = 0;
+  std::vector<Property> properties;
+};
+
+/// The body of a PLY file, walked value by value before OpenMesh reads it: OpenMesh 9 takes a
+/// list size it cannot read (the "0-1" of a face line, a negative number) for a count of
+/// billions and allocates until memory runs out (found by fuzz_mesh_file in the 600 s pass).
+/// Every list size must be a whole number in 0..kMaxPlyList, every value of a text file a
+/// number, and the file must hold all the elements its header declares. `in` stands just
+/// after end_header.
+constexpr long long kMaxPlyList = 1024;
+void check_ply_body(std::istream& in, const std::string& path, const std::string& format,
+                    const std::vector<PlyElement>& elements) {
+  const bool ascii = format == "ascii";
+  const uint16_t probe = 1;
+  unsigned char host_first = 0;
+  std::memcpy(&host_first, &probe, 1);
+  const bool swap = (format == "binary_big_endian") == (host_first == 1);  // file and host differ
+  const auto bytes_of = [](const std::string& t) -> int {
+    if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+    if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+    if (t == "double" || t == "float64") return 8;
+    return 4;  // int, uint, float and their sized names
+  };
+  // 0: read into `out`; 1: end of file; 2: a text value that is not a number (in `word`).
+  std::string word;
+  const auto value = [&](const std::string& type, double& out) -> int {
+    if (ascii) {
+      if (!(in >> word)) return 1;
+      char* end = nullptr;
+      out = std::strtod(word.c_str(), &end);
+      return end == word.c_str() + word.size() ? 0 : 2;
+    }
+    unsigned char b[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    const int n = bytes_of(type);
+    if (!in.read(reinterpret_cast<char*>(b), n)) return 1;
+    if (swap) std::reverse(b, b + n);
+    if (type == "float" || type == "float32") {
+      float f;
+      std::memcpy(&f, b, 4);
+      out = f;
+    } else if (type == "double" || type == "float64") {
+      std::memcpy(&out, b, 8);
+    } else {  // b holds the value in the host's byte order now
+      if (type == "char" || type == "int8") {
+        int8_t v;
+        std::memcpy(&v, b, 1);
+        out = v;
+      } else if (type == "uchar" || type == "uint8") {
+        out = b[0];
+      } else if (type == "short" || type == "int16") {
+        int16_t v;
+        std::memcpy(&v, b, 2);
+        out = v;
+      } else if (type == "ushort" || type == "uint16") {
+        uint16_t v;
+        std::memcpy(&v, b, 2);
+        out = v;
+      } else if (type == "int" || type == "int32") {
+        int32_t v;
+        std::memcpy(&v, b, 4);
+        out = v;
+      } else {
+        uint32_t v;
+        std::memcpy(&v, b, 4);
+        out = v;
+      }
+    }
+    return 0;
+  };
+  for (const PlyElement& e : elements)
+    for (long long item = 0; item < e.count; ++item)
+      for (const PlyElement::Property& p : e.properties) {
+        const auto fail = [&](const std::string& why) {
+          throw std::runtime_error(path + ": PLY element '" + e.name.substr(0, 24) + "' item " + std::to_string(item) +
+                                   ": " + why);
+        };
+        double x = 0.0;
+        int r = value(p.list ? p.count_type : p.type, x);
+        if (r == 1) fail("the file ends early");
+        if (r == 2 && !p.list) fail("'" + word.substr(0, 24) + "' is not a number");
+        if (!p.list) continue;
+        const bool digits =
+            !ascii || std::all_of(word.begin(), word.end(), [](unsigned char c) { return std::isdigit(c); });
+        if (!(r == 0 && digits && x >= 0.0 && x <= kMaxPlyList && x == std::floor(x)))
+          fail("list size " +
+               (ascii                ? "'" + word.substr(0, 24) + "'"
+                : std::abs(x) < 1e18 ? std::to_string(static_cast<long long>(x))
+                                     : std::to_string(x)) +
+               " is not in 0.." + std::to_string(kMaxPlyList));
+        for (long long k = 0, n = static_cast<long long>(x); k < n; ++k) {
+          r = value(p.type, x);
+          if (r == 1) fail("the file ends early");
+          if (r == 2) fail("'" + word.substr(0, 24) + "' is not a number");
+        }
+      }
 }
 
 /// The element counts a PLY or OFF header declares, checked against kMaxMeshVertices /
@@ -59,6 +168,8 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
     };
     int lines = 0;
     bool ended = false, in_element = false;
+    std::vector<PlyElement> elements;
+    std::string format;
     while (!ended && std::getline(in, line)) {
       if (++lines > 10000) bad(lines, "no end_header in the first 10000 lines");
       if (!line.empty() && line.back() == '\r') line.pop_back();
@@ -72,6 +183,7 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
         if ((kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian") || version != "1.0" ||
             (ss >> more))
           bad(lines, "unknown format '" + line.substr(0, 60) + "'");
+        format = kind;
         continue;
       }
       if (lines == 1) {
@@ -92,12 +204,9 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
         std::string kind, count;
         ss >> kind >> count;
         words_end();
-        if (kind == "vertex")
-          vertices = number(count, "vertex");
-        else if (kind == "face")
-          faces = number(count, "face");
-        else
-          number(count, kind.substr(0, 24).c_str());
+        elements.push_back({kind, number(count, kind == "vertex" || kind == "face" ? kind : kind.substr(0, 24)), {}});
+        if (kind == "vertex") vertices = elements.back().count;
+        if (kind == "face") faces = elements.back().count;
       } else if (key == "property") {
         std::string type, a, b, name;
         ss >> type >> a;
@@ -106,11 +215,17 @@ std::pair<long long, long long> check_header_counts(const std::string& path, con
           bad(lines, "unknown property type in '" + line.substr(0, 60) + "'");
         if ((type == "list" ? name : a).empty()) bad(lines, "a property without a name: '" + line.substr(0, 60) + "'");
         words_end();
+        elements.back().properties.push_back({type == "list", a, type == "list" ? b : type});
       } else if (key != "format" && key != "comment" && key != "obj_info" && !key.empty()) {
         bad(lines, "unknown keyword '" + key.substr(0, 24) + "'");
       }
     }
     if (!ended) bad(lines, "the header has no end_header");
+    if (format.empty()) bad(lines, "the header has no format line");
+    // The body, when every count is bounded (each element takes at least a byte of the file).
+    bool bounded = vertices <= kMaxMeshVertices && faces <= kMaxMeshFaces;
+    for (const PlyElement& e : elements) bounded = bounded && static_cast<unsigned long long>(e.count) <= bytes;
+    if (bounded) check_ply_body(in, path, format, elements);
   } else {  // .off: "[ST][C][N][4]OFF" (maybe with the counts on the same line), comments, "nv nf ne"
     // Only this text form is passed to OpenMesh, which otherwise takes whatever follows a
     // damaged keyword for counts (a 4.7 GB allocation, found by fuzz_mesh_file).

@@ -392,6 +392,36 @@ TEST(MeshIo, ObjPlyOffXyzAndPc2RoundTrip) {
   const MeshData ply = read_mesh((dir / "cloud.ply").string());
   EXPECT_EQ(ply.positions, (std::vector<float>{1, 2, 3, 4, 5, 6}));
   EXPECT_TRUE(ply.triangles.empty());
+  // Binary PLY, both byte orders (read_mesh walks the body before OpenMesh reads it): a triangle
+  // with an int list size, and the same claiming a list of 2^31 entries, refused.
+  for (const bool big : {false, true}) {
+    const auto put = [&](std::string& out, const void* v, size_t n) {
+      const auto* c = static_cast<const char*>(v);
+      for (size_t k = 0; k < n; ++k) out += c[big ? n - 1 - k : k];  // the host is little-endian
+    };
+    const std::string head = std::string("ply\nformat ") + (big ? "binary_big_endian" : "binary_little_endian") +
+                             " 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list int int vertex_indices\nend_header\n";
+    std::string body;
+    for (float x : {0.0f, 0.0f, 0.0f, 1.0f, 0.0f, 0.0f, 0.0f, 1.0f, 0.0f}) put(body, &x, 4);
+    for (int32_t i : {3, 0, 1, 2}) put(body, &i, 4);
+    const std::string name = big ? "big.ply" : "little.ply";
+    std::ofstream((dir / name).string(), std::ios::binary) << head << body;
+    const MeshData b = read_mesh((dir / name).string());
+    EXPECT_EQ(b.positions, (std::vector<float>{0, 0, 0, 1, 0, 0, 0, 1, 0})) << name;
+    EXPECT_EQ(b.triangles, (std::vector<int32_t>{0, 1, 2})) << name;
+    std::string huge = body.substr(0, 36);
+    const int32_t size = 0x7fffffff;
+    put(huge, &size, 4);
+    std::ofstream((dir / ("huge_" + name)).string(), std::ios::binary) << head << huge;
+    try {
+      read_mesh((dir / ("huge_" + name)).string());
+      ADD_FAILURE() << name << ": no error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("PLY element 'face' item 0: list size 2147483647"), std::string::npos)
+          << e.what();
+    }
+  }
   EXPECT_THROW(read_mesh((dir / "missing.obj").string()), std::runtime_error);
   EXPECT_THROW(read_mesh((dir / "cloud.stl").string()), std::runtime_error);
   {
@@ -475,6 +505,19 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
        "PLY header line 6: a property without a name"},
       {"more_words.ply", ply_head + "1 end_header\nproperty float x\nend_header\n0\n",
        "PLY header line 3: 'end_header' after the end of 'element vertex 1 end_header'"},
+      // OpenMesh took "0-1" for a face size of billions: a 2 GB allocation and more (fuzz_mesh_file's
+      // 600 s pass, regress_ply_list_size_not_a_number).
+      {"face_size.ply",
+       ply_head + "1\nproperty float x\nproperty float y\nproperty float z\nelement face 4\nproperty list uchar int "
+                  "vertex_indices\nend_header\n0 0 0\n0-1  0\n0 1 0\n3 0 1 2\n",
+       "PLY element 'face' item 0: list size '0-1' is not in 0..1024"},
+      {"negative_size.ply",
+       ply_head + "1\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list char int "
+                  "vertex_indices\nend_header\n0 0 0\n-3 0 0 0\n",
+       "PLY element 'face' item 0: list size '-3' is not in 0..1024"},
+      {"short.ply", ply_head + "2" + ply_tail, "PLY element 'vertex' item 1: the file ends early"},
+      {"word.ply", ply_head + "1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 two 3\n",
+       "PLY element 'vertex' item 0: 'two' is not a number"},
   };
   for (const auto& [name, content, says] : refused) {
     e = error(name, content);

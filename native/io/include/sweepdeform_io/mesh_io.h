@@ -25,7 +25,8 @@ constexpr long long kMaxMeshFaces = 100'000'000;
 /// `dropped_faces`; the vertices are exactly the file's, never the copies OpenMesh makes for
 /// such faces) or .xyz / .txt / .pts (one point "x y z ..." per line, '#' comments).
 /// OFF files are read in their text form only ([ST][C][N][4]OFF; not binary, not nOFF), PLY
-/// files only with a header this reader understands (types, end_header).
+/// files only with a header this reader understands (types, names, end_header) and a body
+/// holding every element it declares, each list of at most 1024 entries.
 /// Throws std::runtime_error naming the file when it cannot be read, has no vertices, declares
 /// more than kMaxMeshVertices / kMaxMeshFaces, or has a point line that is not three finite
 /// numbers.
