@@ -483,6 +483,11 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
       // Counts on the keyword line: OpenMesh reads the next line for them (took "0-01" for -1: 17 GB).
       {"same_line.off", "OFF 4 1 0\n0-01\n0 1\n", "the OFF keyword line holds '4': the counts belong on the next line"},
       {"no_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf /1 2 3\n", "no_index.obj:4: a face corner without a vertex index"},
+      // Indented, and so missed by the check while OpenMesh read it (an assertion failed:
+      // fuzz_mesh_file's third 600 s run, regress_obj_indented_face).
+      {"indented.obj", "v  3/\n f /3 3//\x02", "indented.obj:2: a face corner without a vertex index"},
+      {"indented_vertices.obj", "\tv 0 0 0\n v 1 0 0\nv 0 1 0\n  f 1 2 4\n",
+       "indented_vertices.obj:4: face corner '4' names no vertex defined above it"},
       {"out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
        "out_of_range.obj:4: face corner '4' names no vertex defined above it"},
       {"format.ply", "ply\nformat ascii 0.\xb5" + std::string(3, '\0') + "ement vertex 6\n",
