@@ -521,6 +521,13 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
                   "vertex_indices\nend_header\n0 0 0\n-3 0 0 0\n",
        "PLY element 'face' item 0: list size '-3' is not in 0..1024"},
       {"short.ply", ply_head + "2" + ply_tail, "PLY element 'vertex' item 1: the file ends early"},
+      // A second vertex element of 9.3e9 while the check bounded the last one (OpenMesh: 2.4 GB;
+      // fuzz_mesh_file's fourth 600 s run, regress_ply_second_vertex_element).
+      {"two_vertex.ply", ply_head + "9299999999\nproperty float x\nelement vertex 0\nproperty float x\nend_header\n",
+       "PLY header line 5: a second 'vertex' element"},
+      {"huge_other.ply",
+       ply_head + "1" + "\nproperty float x\nelement edge 4000000000\nproperty int a\nend_header\n0\n",
+       "PLY header line 5: the element 'edge' declares 4000000000 items"},
       {"word.ply", ply_head + "1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 two 3\n",
        "PLY element 'vertex' item 0: 'two' is not a number"},
   };
