@@ -483,6 +483,11 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
       // Counts on the keyword line: OpenMesh reads the next line for them (took "0-01" for -1: 17 GB).
       {"same_line.off", "OFF 4 1 0\n0-01\n0 1\n", "the OFF keyword line holds '4': the counts belong on the next line"},
       {"no_index.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf /1 2 3\n", "no_index.obj:4: a face corner without a vertex index"},
+      // Indented, and so missed by the check while OpenMesh read it (an assertion failed:
+      // fuzz_mesh_file's third 600 s run, regress_obj_indented_face).
+      {"indented.obj", "v  3/\n f /3 3//\x02", "indented.obj:2: a face corner without a vertex index"},
+      {"indented_vertices.obj", "\tv 0 0 0\n v 1 0 0\nv 0 1 0\n  f 1 2 4\n",
+       "indented_vertices.obj:4: face corner '4' names no vertex defined above it"},
       {"out_of_range.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
        "out_of_range.obj:4: face corner '4' names no vertex defined above it"},
       {"format.ply", "ply\nformat ascii 0.\xb5" + std::string(3, '\0') + "ement vertex 6\n",
@@ -516,6 +521,13 @@ TEST(MeshIo, HeaderCountsAreBoundedBeforeAllocating) {
                   "vertex_indices\nend_header\n0 0 0\n-3 0 0 0\n",
        "PLY element 'face' item 0: list size '-3' is not in 0..1024"},
       {"short.ply", ply_head + "2" + ply_tail, "PLY element 'vertex' item 1: the file ends early"},
+      // A second vertex element of 9.3e9 while the check bounded the last one (OpenMesh: 2.4 GB;
+      // fuzz_mesh_file's fourth 600 s run, regress_ply_second_vertex_element).
+      {"two_vertex.ply", ply_head + "9299999999\nproperty float x\nelement vertex 0\nproperty float x\nend_header\n",
+       "PLY header line 5: a second 'vertex' element"},
+      {"huge_other.ply",
+       ply_head + "1" + "\nproperty float x\nelement edge 4000000000\nproperty int a\nend_header\n0\n",
+       "PLY header line 5: the element 'edge' declares 4000000000 items"},
       {"word.ply", ply_head + "1\nproperty float x\nproperty float y\nproperty float z\nend_header\n1 two 3\n",
        "PLY element 'vertex' item 0: 'two' is not a number"},
   };
