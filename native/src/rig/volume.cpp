@@ -119,17 +119,24 @@ VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKe
     VolumeControlResult r;
     double v = form.volume(a.data(), b.data(), ga.data(), gb.data());
     r.before = v;
+    // Departs from the paper (docs/math.md): the joint keys and their neighbours take part
+    // from the first step, and the step is the smallest change of the keys' scales a_k / a0_k
+    // (not of the half-axes themselves). The paper's order, joints alone for two steps, put
+    // nearly all of it into the joint key: a bulb that pushed MakeHuman's elbow skin to 1.67x
+    // its rest distance from the bone at 150 degrees (Preserve Volume: 1.21).
     std::vector<int> active = keys.joints;
+    active.insert(active.end(), keys.neighbours.begin(), keys.neighbours.end());
     for (int it = 0; it < max_iterations; ++it) {
         if (!(target > 0.0) || std::abs(v - target) <= tolerance * target) break;
-        if (it == 2) active.insert(active.end(), keys.neighbours.begin(), keys.neighbours.end());
+        // In scales x_k = a_k / a0_k the gradient is a0_k ∂V/∂a_k, so the step on a_k is
+        // a0_k² ∂V/∂a_k times the common factor.
         double norm2 = 0.0;
-        for (int k : active) norm2 += ga[k] * ga[k] + gb[k] * gb[k];
+        for (int k : active) norm2 += a0[k] * a0[k] * ga[k] * ga[k] + b0[k] * b0[k] * gb[k] * gb[k];
         if (!(norm2 > 0.0)) break;
         const double step = (target - v) / norm2;
         for (int k : active) {
-            a[k] = std::clamp(a[k] + step * ga[k], 0.1 * a0[k], 10.0 * a0[k]);
-            b[k] = std::clamp(b[k] + step * gb[k], 0.1 * b0[k], 10.0 * b0[k]);
+            a[k] = std::clamp(a[k] + step * a0[k] * a0[k] * ga[k], 0.1 * a0[k], 10.0 * a0[k]);
+            b[k] = std::clamp(b[k] + step * b0[k] * b0[k] * gb[k], 0.1 * b0[k], 10.0 * b0[k]);
         }
         v = form.volume(a.data(), b.data(), ga.data(), gb.data());
         r.iterations = it + 1;

@@ -55,9 +55,10 @@ struct VolumeControlResult {
     int iterations = 0;
 };
 
-/// The controller of Sect. 4.4: starting from the rest half-axes, repeat
-///   Δ(α, β) = (V_target − V) / |∇V|² ∇V
-/// over the joint keys for the first two iterations and over joints plus neighbours after,
+/// The controller of Sect. 4.4: starting from the rest half-axes, repeat the smallest step
+/// of the keys' scales (a_k / a0_k, b_k / b0_k) that reaches V_target to first order,
+///   Δa_k = a0_k² ∂V/∂a_k (V_target − V) / Σ (a0_l² (∂V/∂a_l)² + b0_l² (∂V/∂b_l)²),
+/// over the joint keys and their neighbours (the paper: joints alone for two iterations),
 /// until |V − V_target| / V_target <= tolerance or `max_iterations` steps were taken.
 /// Half-axes stay within 10 % .. 10x of their rest values.
 /// @param a, b  in: rest key half-axes; out: controlled ones (#K each)

@@ -68,5 +68,28 @@ TEST(SweepVolume, GradientMatchesFiniteDifferences) {
     }
 }
 
+
+TEST(VolumeControl, SpreadsTheGrowthOverTheJointAndItsNeighbours) {
+    // The arm has one interior joint key (the elbow, key 3). Asked for 4 % more volume, the
+    // controller reaches it by scaling the elbow key and its two neighbours alike; the paper's
+    // order (the joint alone for two iterations) put it all into the elbow key, a bulb that
+    // pushed a real elbow's skin to 1.67x its rest distance from the bone.
+    const test::Arm arm;
+    const Sweep& s = arm.rig.sweeps[0];
+    const VolumeForm form(s.quadrature, volume_density(s.quadrature, s.rest_geometry));
+    std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
+    ASSERT_EQ(s.control_keys.joints, std::vector<int>{3});
+    const double target = 1.04 * s.rest_volume;
+    const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
+    EXPECT_LE(std::abs(r.after - target) / target, 2e-4);
+    double largest = 0.0;
+    for (size_t k = 0; k < a.size(); ++k) {
+        const double scale = std::sqrt(a[k] * b[k] / (s.rest_half_axes.a[k] * s.rest_half_axes.b[k]));
+        largest = std::max(largest, scale);
+    }
+    for (int k : {2, 4}) EXPECT_GT(std::sqrt(a[k] * b[k] / (s.rest_half_axes.a[k] * s.rest_half_axes.b[k])), 1.03) << k;
+    EXPECT_LT(largest, 1.08);
+}
+
 }  // namespace
 }  // namespace sd
