@@ -15,6 +15,12 @@ struct Affine3x4 {
     void apply_add(float w, const float* p, float* out) const {
         for (int r = 0; r < 3; ++r) out[r] += w * (m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]);
     }
+    /// this += w other, element by element (blending matrices before applying them).
+    void add_weighted(float w, const Affine3x4& other) {
+        float* a = &m[0][0];
+        const float* o = &other.m[0][0];
+        for (int k = 0; k < 12; ++k) a[k] += w * o[k];
+    }
 };
 
 /// M_b = P_b rest_b^-1 of every bone as 3x4 floats.
