@@ -49,6 +49,19 @@ void BM_SweepDeform(benchmark::State& state) {
     state.counters["vertices"] = static_cast<double>(out.size() / 3);
 }
 
+/// deform() plus every vertex's local linear map J: the frame of a character with a shape key
+/// or a modifier before Sweep Deform (issue 16: "with a shape key active, the same").
+void BM_SweepDeformFrames(benchmark::State& state) {
+    Case& c = *g_case;
+    c.deformer->set_volume_preservation(true, 1.0);
+    std::vector<float> out(c.character.positions.size()), frames(3 * c.character.positions.size());
+    size_t frame = 0;
+    for (auto _ : state) {
+        c.deformer->deform_frames(c.poses[frame++ % c.poses.size()].data(), out.data(), frames.data());
+        benchmark::DoNotOptimize(frames.data());
+    }
+}
+
 void BM_LinearBlendSkinning4(benchmark::State& state) {
     Case& c = *g_case;
     const int V = static_cast<int>(c.character.positions.size() / 3);
@@ -80,6 +93,12 @@ BENCHMARK(BM_SweepDeform)
     ->Arg(1)
     ->Arg(0)
     ->ArgName("volume")
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->Repetitions(7)
+    ->ReportAggregatesOnly();
+BENCHMARK(BM_SweepDeformFrames)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.5)
@@ -123,12 +142,17 @@ int main(int argc, char** argv) {
     };
     const double sweep = ms("BM_SweepDeform/volume:1"), sweep_nv = ms("BM_SweepDeform/volume:0");
     const double lbs = ms("BM_LinearBlendSkinning4"), fit_bind = ms("BM_FitAndBind");
+    const double frames = ms("BM_SweepDeformFrames");
     if (sweep > 0 && lbs > 0) {
         std::printf("\nFIGURES (%d vertices)\n", V);
         std::printf("  sweep deformation, volume control on : %.3f ms/frame\n", sweep);
         std::printf("  sweep deformation, volume control off: %.3f ms/frame\n", sweep_nv);
         std::printf("  linear blend skinning, 4 influences  : %.3f ms/frame\n", lbs);
         std::printf("  ratio sweep / LBS                    : %.2f (target <= 1.0)\n", sweep / lbs);
+        if (frames > 0) {
+            std::printf("  sweep deformation with J (shape keys): %.3f ms/frame\n", frames);
+            std::printf("  ratio sweep with J / LBS             : %.2f\n", frames / lbs);
+        }
         std::printf("  fit + bind (chains, keys, regions)   : %.1f ms (target <= 2000)\n", fit_bind);
     }
     return 0;

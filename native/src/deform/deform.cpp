@@ -307,73 +307,20 @@ void Deformer::deform(const float* pose, float* out) {
         bones_ = bone_affines(pose_);
         bone_frames_.resize(bones_.size());
         for (size_t b = 0; b < bones_.size(); ++b) bone_frames_[b] = bone_frame(bones_[b].m);
-        kernel_.run(half_spans_.data(), bones_.data(), bone_frames_.data(), binding_, out, rotations_);
+        kernel_.run(half_spans_.data(), bones_.data(), bone_frames_.data(), binding_, out, jacobians_);
     });
 }
 
 void Deformer::deform_frames(const float* pose, float* out, float* frames) {
     const std::lock_guard<std::recursive_mutex> guard(mutex_);
-    frame_rotations_.resize(4 * static_cast<size_t>(vertex_count()));
-    rotations_ = frame_rotations_.data();
+    jacobians_ = frames;
     try {
         deform(pose, out);
     } catch (...) {
-        rotations_ = nullptr;
+        jacobians_ = nullptr;
         throw;
     }
-    rotations_ = nullptr;
-    const auto& influences = binding_.sweep_influences;
-    std::vector<Quat> keys;
-    std::vector<int> first;
-    flatten(key_rotations_, keys, first);
-    const auto add_rotation = [](float k, const float* q, float j[3][3]) {
-        const float x = q[0], y = q[1], z = q[2], w = q[3];
-        j[0][0] += k * (1 - 2 * (y * y + z * z));
-        j[0][1] += k * 2 * (x * y - w * z);
-        j[0][2] += k * 2 * (x * z + w * y);
-        j[1][0] += k * 2 * (x * y + w * z);
-        j[1][1] += k * (1 - 2 * (x * x + z * z));
-        j[1][2] += k * 2 * (y * z - w * x);
-        j[2][0] += k * 2 * (x * z - w * y);
-        j[2][1] += k * 2 * (y * z + w * x);
-        j[2][2] += k * (1 - 2 * (x * x + y * y));
-    };
-    tbb::this_task_arena::isolate([&] {
-        tbb::parallel_for(tbb::blocked_range<int>(0, vertex_count(), 2048), [&](const tbb::blocked_range<int>& r) {
-            for (int v = r.begin(); v != r.end(); ++v) {
-                float j[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};  // row-major
-                // As the position was blended: the frames' blended rotation with their share,
-                // and the influences that join as points (all of them if none is a frame).
-                const float share = kernel_.frame_share(v);
-                if (share > 0.0f) add_rotation(share, &frame_rotations_[4 * static_cast<size_t>(v)], j);
-                {
-                    for (uint32_t i = binding_.sweep_offsets[v]; i < binding_.sweep_offsets[v + 1]; ++i) {
-                        const SweepInfluence& in = influences[i];
-                        const int key = first[in.sweep] + in.span;
-                        const Quat p = blend(keys[key], keys[key + 1], in.u);
-                        const auto& c = rest_inverse_[i];
-                        // q = Q(u) Q_rest(u)^-1, then its rotation matrix, weighted.
-                        const float q[4] = {p[3] * c[0] + p[0] * c[3] + p[1] * c[2] - p[2] * c[1],
-                                            p[3] * c[1] - p[0] * c[2] + p[1] * c[3] + p[2] * c[0],
-                                            p[3] * c[2] + p[0] * c[1] - p[1] * c[0] + p[2] * c[3],
-                                            p[3] * c[3] - p[0] * c[0] - p[1] * c[1] - p[2] * c[2]};
-                        if (share == 0.0f || point_sweep_[i]) add_rotation(in.weight, q, j);
-                    }
-                    for (uint32_t i = binding_.bone_offsets[v]; i < binding_.bone_offsets[v + 1]; ++i) {
-                        const BoneInfluence& in = binding_.bone_influences[i];
-                        const Affine3x4& m = bones_[in.bone];
-                        for (int rr = 0; rr < 3; ++rr)
-                            for (int c = 0; c < 3; ++c)
-                                if (share == 0.0f || point_bone_[i]) j[rr][c] += in.weight * m.m[rr][c];
-                    }
-                }
-                // Three blocks of #V*3: block r holds row r of every vertex's J.
-                const size_t block = 3 * static_cast<size_t>(vertex_count());
-                for (int rr = 0; rr < 3; ++rr)
-                    for (int c = 0; c < 3; ++c) frames[rr * block + 3 * static_cast<size_t>(v) + c] = j[rr][c];
-            }
-        });
-    });
+    jacobians_ = nullptr;
 }
 
 }  // namespace sd

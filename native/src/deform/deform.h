@@ -88,9 +88,8 @@ private:
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;
     std::vector<BoneFrame> bone_frames_;             // per bone, bones_ as dual quaternions
-    std::vector<float> frame_rotations_;             // deform_frames(): blended vertices' rotations
     std::vector<uint8_t> point_sweep_, point_bone_;  // per influence: joins as a point
-    float* rotations_ = nullptr;                     // where deform() writes them (deform_frames only)
+    float* jacobians_ = nullptr;                     // where deform() writes J (deform_frames only)
 };
 
 }  // namespace sd

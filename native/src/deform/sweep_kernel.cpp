@@ -96,6 +96,63 @@ void evaluate_frame_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, c
     }
 }
 
+/// With J: w R(u) R_rest(u)^-1 of slots [begin, end) as 9 floats each (row-major), with
+/// Q(u) = (1-u) q0 + u q1 normalised as in the position. Flat and branch-free: it vectorises.
+void evaluate_turn_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const float* __restrict u_,
+                         const float* __restrict w_, const float* __restrict rx_, const float* __restrict ry_,
+                         const float* __restrict rz_, const float* __restrict rw_, float* __restrict turns) {
+    const HalfSpanKernel c = k;
+#pragma GCC ivdep
+    for (int32_t i = begin; i < end; ++i) {
+        const float u = u_[i];
+        const float ax = c.q0[0] + u * (c.q1[0] - c.q0[0]);
+        const float ay = c.q0[1] + u * (c.q1[1] - c.q0[1]);
+        const float az = c.q0[2] + u * (c.q1[2] - c.q0[2]);
+        const float aw = c.q0[3] + u * (c.q1[3] - c.q0[3]);
+        const float rx = rx_[i], ry = ry_[i], rz = rz_[i], rw = rw_[i];
+        // q = Q(u) r, unnormalised; R(q) = R(Q/|Q|) r is R(q) / |Q|², so w / |Q|² weighs it.
+        const float x = aw * rx + ax * rw + ay * rz - az * ry;
+        const float y = aw * ry - ax * rz + ay * rw + az * rx;
+        const float z = aw * rz + ax * ry - ay * rx + az * rw;
+        const float w = aw * rw - ax * rx - ay * ry - az * rz;
+        const float n2 = ax * ax + ay * ay + az * az + aw * aw;  // = |q|², r being a unit quaternion
+        const float s = w_[i] / n2, s2 = 2.0f * s;
+        float* o = turns + 9 * static_cast<size_t>(i);
+        o[0] = s * (w * w + x * x - y * y - z * z);
+        o[1] = s2 * (x * y - w * z);
+        o[2] = s2 * (x * z + w * y);
+        o[3] = s2 * (x * y + w * z);
+        o[4] = s * (w * w - x * x + y * y - z * z);
+        o[5] = s2 * (y * z - w * x);
+        o[6] = s2 * (x * z - w * y);
+        o[7] = s2 * (y * z + w * x);
+        o[8] = s * (w * w - x * x - y * y + z * z);
+    }
+}
+
+/// j += the unit rotation q as a matrix, weighted by k.
+void add_rotation(float k, const float* q, float* j) {
+    const float x = q[0], y = q[1], z = q[2], w = q[3];
+    j[0] += k * (1 - 2 * (y * y + z * z));
+    j[1] += k * 2 * (x * y - w * z);
+    j[2] += k * 2 * (x * z + w * y);
+    j[3] += k * 2 * (x * y + w * z);
+    j[4] += k * (1 - 2 * (x * x + z * z));
+    j[5] += k * 2 * (y * z - w * x);
+    j[6] += k * 2 * (x * z - w * y);
+    j[7] += k * 2 * (y * z + w * x);
+    j[8] += k * (1 - 2 * (x * x + y * y));
+}
+
+void add_slot_turn(const float* t, float* j) {
+    for (int k = 0; k < 9; ++k) j[k] += t[k];
+}
+
+void add_bone_turn(float w, const Affine3x4& m, float* j) {
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) j[3 * r + c] += w * m.m[r][c];
+}
+
 }  // namespace
 
 SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
@@ -172,7 +229,9 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
 }
 
 void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
-                      const Binding& b, float* out, float* rotations) {
+                      const Binding& b, float* out, float* jacobians) {
+    if (jacobians) turns_.resize(9 * u_.size());
+    const size_t block = 3 * static_cast<size_t>(b.vertex_count());
     const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(),
                            sin_.data(), rx_.data(), ry_.data(), rz_.data(), rw_.data(), vx_.data(),
                            vy_.data(),  vz_.data(), px_.data(), py_.data(), pz_.data(), frames_.data()};
@@ -184,12 +243,16 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             else
                 evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(), y_.data(),
                                z_.data(), cos_.data(), sin_.data(), px_.data(), py_.data(), pz_.data());
+            if (jacobians)
+                evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), rx_.data(),
+                                    ry_.data(), rz_.data(), rw_.data(), turns_.data());
         }
     });
     const float* rest = b.rest_positions.data();
     tbb::parallel_for(tbb::blocked_range<int>(0, b.vertex_count(), 4096), [&](const tbb::blocked_range<int>& r) {
         for (int v = r.begin(); v != r.end(); ++v) {
             float p[3] = {0.0f, 0.0f, 0.0f};
+            float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
             if (row_blends_[v] > 0.0f) {
                 // Frames blended among themselves, weighted by their share; points added.
                 FrameBlend blend;
@@ -200,6 +263,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                         p[0] += px_[s];
                         p[1] += py_[s];
                         p[2] += pz_[s];
+                        if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
                     } else {
                         const float* o = &frames_[8 * static_cast<size_t>(s)];
                         blend.add_weighted(o, o + 4);
@@ -210,6 +274,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                     const BoneFrame& f = bone_frames[in.bone];
                     if (point_bone_[i]) {
                         bones[in.bone].apply_add(in.weight, x, p);
+                        if (jacobians) add_bone_turn(in.weight, bones[in.bone], j);
                     } else if (f.rigid) {
                         blend.add_bone(in.weight, f, x);
                     } else {
@@ -223,29 +288,45 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 const float share = row_blends_[v];
                 if (blend.apply(move, q)) {
                     for (int k = 0; k < 3; ++k) p[k] += share * (x[k] + move[k]);
+                    if (jacobians) add_rotation(share, q, j);
                 } else {  // the frames cancel: the convex combination of every influence
                     p[0] = p[1] = p[2] = 0.0f;
+                    for (float& e : j) e = 0.0f;
                     for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                         const uint32_t s = rows_[i];
                         p[0] += px_[s];
                         p[1] += py_[s];
                         p[2] += pz_[s];
+                        if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
                     }
-                    for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
-                        bones[b.bone_influences[i].bone].apply_add(b.bone_influences[i].weight, x, p);
+                    for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {
+                        const BoneInfluence& in = b.bone_influences[i];
+                        bones[in.bone].apply_add(in.weight, x, p);
+                        if (jacobians) add_bone_turn(in.weight, bones[in.bone], j);
+                    }
                 }
-                if (rotations)
-                    for (int k = 0; k < 4; ++k) rotations[4 * static_cast<size_t>(v) + k] = q[k];
             } else {
                 for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                     const uint32_t s = rows_[i];
                     p[0] += px_[s];
                     p[1] += py_[s];
                     p[2] += pz_[s];
+                    if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
                 }
-                for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
-                    bones[b.bone_influences[i].bone].apply_add(b.bone_influences[i].weight, rest + 3 * v, p);
+                // The bones' matrices blended first, then applied once (as linear blend
+                // skinning does): 12 multiply-adds per bone, which vectorise; its 3x3 part is J's.
+                const uint32_t first = b.bone_offsets[v], last = b.bone_offsets[v + 1];
+                if (first != last) {
+                    Affine3x4 m{};
+                    for (uint32_t i = first; i < last; ++i)
+                        m.add_weighted(b.bone_influences[i].weight, bones[b.bone_influences[i].bone]);
+                    m.apply_add(1.0f, rest + 3 * v, p);
+                    if (jacobians) add_bone_turn(1.0f, m, j);
+                }
             }
+            if (jacobians)
+                for (int r = 0; r < 3; ++r)
+                    for (int c = 0; c < 3; ++c) jacobians[r * block + 3 * static_cast<size_t>(v) + c] = j[3 * r + c];
             out[3 * v] = p[0];
             out[3 * v + 1] = p[1];
             out[3 * v + 2] = p[2];

@@ -43,9 +43,13 @@ public:
     /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v] for a vertex of one influence, the
     /// rigid-frame blend of the same for a vertex of several (#V*3).
     /// @param bone_frames     per bone, M_b as a dual quaternion (frame_blend.h)
-    /// @param rotations       optional, #V*4: each blended vertex's rotation (others untouched)
+    /// @param jacobians       optional, 3 blocks of #V*3 (block r: row r of every vertex's J):
+    ///                        each vertex's local linear map, blended as its position was —
+    ///                        Σ w R(u) R_rest(u)^-1 over its sweeps, Σ w M_b (3x3) over its bones,
+    ///                        and for a frame-blended vertex the blended rotation with its
+    ///                        share plus the influences that join as points
     void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
-             const Binding& binding, float* out, float* rotations = nullptr);
+             const Binding& binding, float* out, float* jacobians = nullptr);
 
     /// The weight of vertex v's influences blended as frames (0: all blended as points).
     float frame_share(int v) const { return row_blends_[v]; }
@@ -61,6 +65,7 @@ private:
     std::vector<float> px_, py_, pz_;                   // per-frame weighted contributions
     std::vector<float> frames_;                         // per-frame, 8 per frame-blended slot:
                                                         // w q, ½ w (p - V) q
+    std::vector<float> turns_;                          // with J only: 9 per slot, w R(u) R_rest(u)^-1
     std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
     std::vector<float> row_blends_;                     // per vertex: its frame share
     std::vector<uint8_t> point_slot_, point_bone_;      // joins as a point (sorted slot / bone inf.)
