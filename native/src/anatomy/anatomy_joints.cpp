@@ -153,7 +153,7 @@ void Anatomy::add_automatic_effects(int j) {
     // In extension the olecranon sits in its fossa behind the humerus and the patella rests
     // on the femur above the groove, both under thick soft tissue; in flexion they come out
     // under thin skin: the proxy moves out along the extensor side as the joint flexes.
-    proxy.set_emergence(e * ((elbow ? 0.3 : 0.45) * r_e),
+    proxy.set_emergence(e * ((elbow ? 0.1 : 0.45) * r_e),
                         std::max(0.3, glm::radians(elbow ? 135.0 : 110.0) - J.rest_bend));
     proxies_.push_back(std::move(proxy));
 

@@ -104,10 +104,20 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
             j.link_length = std::min(len[i - 1], len[i]);
             specs.push_back(j);
         }
-        for (int k = 1; k <= opt.keys_per_link; ++k) {
+        // A forearm's or shin's link, which starts at an interior joint (elbow, knee), gets one
+        // key more: with keys at thirds the joint's turn was spread over a third of the shin,
+        // the calf's back near the knee followed a frame turned half as far as the shin and
+        // folded into the thigh (its section 0.81 of rest at 135 degrees). The upper links keep
+        // theirs: one more on the thigh crossed the skin at the hip's crease.
+        const int extra = opt.extra_keys_after_joint;
+        const bool limb = ch.kind == ChainKind::Arm || ch.kind == ChainKind::Leg;
+        const int count = opt.keys_per_link + (limb && i > 0 ? extra : 0);
+        std::vector<double> along;
+        for (int k = 1; k <= count; ++k) along.push_back(static_cast<double>(k) / (count + 1));
+        for (double f : along) {
             KeySpec in;
             in.role = "intermediate";
-            in.point = joint[i] + (static_cast<double>(k) / (opt.keys_per_link + 1)) * (joint[i + 1] - joint[i]);
+            in.point = joint[i] + f * (joint[i + 1] - joint[i]);
             in.normal = dir[i];
             in.bone = links[i];
             in.fixed_center = false;

@@ -16,6 +16,9 @@ namespace sd::fit {
 
 struct KeyOptions {
     int keys_per_link = 2;
+    /// Keys more on an arm's or leg's links below an interior joint (forearm, shin), so the
+    /// joint's turn is taken up closer to it.
+    int extra_keys_after_joint = 1;
     /// Interior joint keys of a joint bent at rest (an A-pose elbow) lie in the bisector of
     /// the two links instead of orthogonal to the lower link: the pose rule turns them by half
     /// the joint's rotation, which keeps a bisector a bisector. Straight joints: the same.

@@ -6,6 +6,7 @@
 // automatically, at elbow flexion 90/120/150 and knee flexion 90/135; and the C ABI.
 #include "anatomy/anatomy.h"
 #include "geometry/bvh.h"
+#include "geometry/cross_section.h"
 #include "geometry/exact_predicates.h"
 #include "geometry/mesh_topology.h"
 #include "geometry/mesh_volume.h"
@@ -729,6 +730,58 @@ TEST_P(AnatomyCharacter, FoldsVolumeAndProtrusionAtElbowAndKneeFlexion) {
             EXPECT_GT(stand_out, 0.0);
         }
     }
+}
+
+/// Area of the loop around `axis_point` in the plane through it with normal `normal`.
+double section_area(const fit::FitMesh& mesh, const dvec3& axis_point, const dvec3& normal) {
+    const std::vector<fit::SectionLoop> loops = fit::cut_mesh(mesh, axis_point, normal);
+    const fit::PlaneFrame frame(axis_point, normal, dvec3(0, 0, 1));
+    std::vector<std::vector<dvec2>> polygons;
+    for (const fit::SectionLoop& l : loops) {
+        polygons.emplace_back();
+        for (const fit::SectionPoint& p : l.points) polygons.back().push_back(frame.to_plane(p.p));
+    }
+    const fit::LoopPick pick = fit::pick_loop(polygons, dvec2(0.0), 0.0);
+    return pick.loop >= 0 && pick.contains ? std::abs(fit::polygon_area(polygons[pick.loop])) : 0.0;
+}
+
+TEST_P(AnatomyCharacter, PlainSweepsKeepTheSectionsBelowTheElbowAndKnee) {
+    // Plain sweeps (no effects), the instrument's collapse measure: the cross-section
+    // perpendicular to the posed forearm or shin a fifth of its length below the joint, against
+    // rest. With two keys a link the joint's turn was spread over a third of the shin and the
+    // calf's back there folded into the thigh (MakeHuman at 135 degrees: 0.81 of rest; linear
+    // blend skinning 1.00); with a key more below each elbow and knee it stays above 0.9.
+    const std::string path = data_file(GetParam().file);
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
+    const Human h = load_human(GetParam().file, GetParam().weld);
+    const Rig& rig = h.fit.rig;
+    const Skeleton& sk = rig.skeleton;
+    const int V = static_cast<int>(h.c.positions.size() / 3), T = static_cast<int>(h.c.triangles.size() / 3);
+    const fit::FitMesh rest_mesh(V, h.c.positions.data(), T, h.c.triangles.data());
+    const double minimum = std::string(GetParam().file).rfind("mh_", 0) == 0 ? 0.9 : 0.8;
+    for (const bool knee : {false, true})
+        for (const double degrees : knee ? std::vector<double>{90, 135} : std::vector<double>{120, 150}) {
+            const auto [upper, lower] = knee ? h.knee_links[0] : h.elbow_links[0];
+            const auto pose = flex_pose(sk, upper, lower, knee ? -h.forward : h.forward, glm::radians(degrees));
+            Deformer d(rig, h.binding);
+            std::vector<float> out(3 * V);
+            d.deform(pose.data(), out.data());
+            const fit::FitMesh posed(V, out.data(), T, h.c.triangles.data());
+            SkeletonPose sp;
+            sp.set(sk, pose.data());
+            const dvec3 head0 = sk.heads[lower], tail0 = sk.tails[lower];
+            const dvec3 head1(sp.deform[lower] * dvec4(head0, 1.0)), tail1(sp.deform[lower] * dvec4(tail0, 1.0));
+            const double a0 = section_area(rest_mesh, head0 + 0.2 * (tail0 - head0), glm::normalize(tail0 - head0));
+            const double a1 = section_area(posed, head1 + 0.2 * (tail1 - head1), glm::normalize(tail1 - head1));
+            ASSERT_GT(a0, 0.0);
+            std::printf("  %s %3.0f deg: section a fifth below the joint %.3f of rest\n", knee ? "knee " : "elbow",
+                        degrees, a1 / a0);
+            // Folded far, the plane also cuts the upper link (twice the area): not this measure.
+            if (a1 / a0 > 1.5) continue;
+            // CesiumMan's coarse elbow keeps less (Preserve Volume: 0.83 at 120 degrees; with two
+            // keys a link the sweeps kept 0.75 at 150).
+            EXPECT_GE(a1 / a0, minimum) << (knee ? "knee " : "elbow ") << degrees;
+        }
 }
 
 INSTANTIATE_TEST_SUITE_P(Humans, AnatomyCharacter,
