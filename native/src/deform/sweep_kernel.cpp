@@ -325,8 +325,9 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 }
             }
             if (jacobians)
-                for (int r = 0; r < 3; ++r)
-                    for (int c = 0; c < 3; ++c) jacobians[r * block + 3 * static_cast<size_t>(v) + c] = j[3 * r + c];
+                for (int row = 0; row < 3; ++row)
+                    for (int c = 0; c < 3; ++c)
+                        jacobians[static_cast<size_t>(row) * block + 3 * static_cast<size_t>(v) + c] = j[3 * row + c];
             out[3 * v] = p[0];
             out[3 * v + 1] = p[1];
             out[3 * v + 2] = p[2];

@@ -68,7 +68,6 @@ TEST(SweepVolume, GradientMatchesFiniteDifferences) {
     }
 }
 
-
 TEST(VolumeControl, SpreadsTheGrowthOverTheJointAndItsNeighbours) {
     // The arm has one interior joint key (the elbow, key 3). Asked for 4 % more volume, the
     // controller reaches it by scaling the elbow key and its two neighbours alike; the paper's
