@@ -49,6 +49,6 @@ def set_test_action(arm, quats, nframes):
     return act
 
 
-if not hasattr(bpy.types.Action, "fcurves"):
+if "fcurves" not in bpy.types.Action.bl_rna.properties:  # RNA, not a Python attribute of the class
     bl.set_test_action = set_test_action
 measure.main()
