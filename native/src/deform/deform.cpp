@@ -149,12 +149,31 @@ double control_trust(const Sweep& s, const VolumeQuadrature& q, const std::vecto
 
 }  // namespace
 
+/// Of a key's area change, the share its first half-axis (a) takes: all of it on the axis
+/// nearest the axis the sweep bends about there (the rotation from the previous to the next
+/// key since rest), so a trunk bent forward fills out at its flanks, not along its spine; half
+/// each where the sweep twists rather than bends. Continuous in the pose.
+static double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
+    const auto& q = posed.key_rotations();
+    const auto& r = s.rest_geometry.key_rotations();
+    const int k0 = std::max(0, k - 1), k1 = std::min(s.key_count() - 1, k + 1);
+    const dquat turn = (q[k1] * glm::conjugate(r[k1])) * glm::conjugate(q[k0] * glm::conjugate(r[k0]));
+    const dvec3 axis(turn.x, turn.y, turn.z);  // sin(angle / 2) times the unit axis
+    const dmat3 frame = glm::mat3_cast(glm::normalize(q[k]));
+    const double ca = glm::dot(axis, frame[0]), cb = glm::dot(axis, frame[1]);
+    const double across = ca * ca + cb * cb, all = glm::dot(axis, axis);
+    if (!(across > 1e-12)) return 0.5;
+    // how much of the turn is a bend (1) rather than a twist about the sweep (0)
+    const double bend = across / all;
+    return 0.5 + bend * (ca * ca / across - 0.5);
+}
+
 void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b) {
     // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
     // shorter than at rest where it bends; each key's cross-section grows by what its two
     // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
-    // (which made a ledge across a bent torso). Limbs keep the paper's controller alone: on
+    // (which made a ledge across a bent torso), and sideways (bend_share_a). Limbs keep the paper's controller alone: on
     // them this restoration halved the elbow's r_max but spread an edit's volume change along
     // the whole arm (tests/blender/test_key_edit.py).
     const int K = s.key_count();
@@ -171,9 +190,14 @@ void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
         if (k < K - 1) r += ratio[k], ++n;
         // Within rounding of the rest length (the rest pose) nothing changes, bit for bit.
         if (std::abs(r / n - 1.0) < 1e-9) continue;
-        const double scale = std::sqrt(1.0 + strength * (r / n - 1.0));
-        a[k] *= scale;
-        b[k] *= scale;
+        // The section's area grows by `area`, along the bend's axis: grown about its centre,
+        // which lies in front of the spine, the trunk bent forward 45 degrees pushed the lower
+        // back 1 cm further out from the spine (MakeHuman: 1.54x its rest distance, Preserve
+        // Volume 1.07; now 1.34).
+        const double area = 1.0 + strength * (r / n - 1.0);
+        const double share = bend_share_a(s, posed, k);
+        a[k] *= std::pow(area, share);
+        b[k] *= std::pow(area, 1.0 - share);
     }
 }
 

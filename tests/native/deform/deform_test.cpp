@@ -71,6 +71,30 @@ TEST_P(BendVolume, ControllerKeepsTheSweepVolume) {
 
 INSTANTIATE_TEST_SUITE_P(Elbow, BendVolume, ::testing::Values(90.0, 150.0));
 
+TEST(Deform, LocalRestorationGrowsSectionsAlongTheBendAxis) {
+    // restore_local_volume (the trunk's, Sect. 4.4 departure): the elbow bent 90 degrees about
+    // z; each key's area grows by what its spans lost, all of it on the half-axis nearest z, so
+    // the skin across the bend (along y after the bend) keeps its distance from the bone.
+    const test::Arm arm;
+    const Sweep& s = arm.rig.sweeps[0];
+    SkeletonPose pose;
+    const std::vector<float> m = arm.pose(glm::radians(90.0));
+    pose.set(arm.rig.skeleton, m.data());
+    std::vector<dvec3> centers;
+    std::vector<dquat> rotations;
+    pose_keys(s, pose, centers, rotations);
+    const SweepGeometry posed(centers, rotations);
+    std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
+    restore_local_volume(s, posed, 1.0, a, b);
+    const int elbow = 3;
+    const double ra = a[elbow] / s.rest_half_axes.a[elbow], rb = b[elbow] / s.rest_half_axes.b[elbow];
+    ASSERT_GT(ra * rb, 1.001) << "the bend must shorten the elbow's spans";
+    const dmat3 frame = glm::mat3_cast(glm::normalize(rotations[elbow]));
+    const bool a_along_z = std::abs(frame[0].z) > std::abs(frame[1].z);
+    EXPECT_NEAR(a_along_z ? rb : ra, 1.0, 1e-3) << "the axis across the bend keeps its length";
+    EXPECT_GT(a_along_z ? ra : rb, 1.001);
+}
+
 TEST(Deform, ElbowKeyBisectsTheJoint) {
     const test::Arm arm;
     const Sweep& s = arm.rig.sweeps[0];
