@@ -8,8 +8,6 @@
 #include <cmath>
 
 #include <glm/gtc/quaternion.hpp>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <array>
@@ -147,13 +145,11 @@ double control_trust(const Sweep& s, const VolumeQuadrature& q, const std::vecto
            std::clamp((kept - kKeptNone) / (kKeptFull - kKeptNone), 0.0, 1.0);
 }
 
-}  // namespace
-
 /// Of a key's area change, the share its first half-axis (a) takes: all of it on the axis
 /// nearest the axis the sweep bends about there (the rotation from the previous to the next
 /// key since rest), so a trunk bent forward fills out at its flanks, not along its spine; half
 /// each where the sweep twists rather than bends. Continuous in the pose.
-static double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
+double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
     const auto& q = posed.key_rotations();
     const auto& r = s.rest_geometry.key_rotations();
     const int k0 = std::max(0, k - 1), k1 = std::min(s.key_count() - 1, k + 1);
@@ -168,14 +164,16 @@ static double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
     return 0.5 + bend * (ca * ca / across - 0.5);
 }
 
+}  // namespace
+
 void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b) {
     // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
     // shorter than at rest where it bends; each key's cross-section grows by what its two
     // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
-    // (which made a ledge across a bent torso), and sideways (bend_share_a). Limbs keep the paper's controller alone: on
-    // them this restoration halved the elbow's r_max but spread an edit's volume change along
-    // the whole arm (tests/blender/test_key_edit.py).
+    // (which made a ledge across a bent torso), and sideways (bend_share_a). Limbs keep the
+    // paper's controller alone: on them this restoration halved the elbow's r_max but spread
+    // an edit's volume change along the whole arm (tests/blender/test_key_edit.py).
     const int K = s.key_count();
     std::vector<double> ratio(K - 1);
     for (int span = 0; span < K - 1; ++span) {

@@ -51,9 +51,6 @@ public:
     void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
              const Binding& binding, float* out, float* jacobians = nullptr);
 
-    /// The weight of vertex v's influences blended as frames (0: all blended as points).
-    float frame_share(int v) const { return row_blends_[v]; }
-
 private:
     struct Batch {
         int32_t half_span, begin, end;

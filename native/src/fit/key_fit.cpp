@@ -109,15 +109,12 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
         // the calf's back near the knee followed a frame turned half as far as the shin and
         // folded into the thigh (its section 0.81 of rest at 135 degrees). The upper links keep
         // theirs: one more on the thigh crossed the skin at the hip's crease.
-        const int extra = opt.extra_keys_after_joint;
         const bool limb = ch.kind == ChainKind::Arm || ch.kind == ChainKind::Leg;
-        const int count = opt.keys_per_link + (limb && i > 0 ? extra : 0);
-        std::vector<double> along;
-        for (int k = 1; k <= count; ++k) along.push_back(static_cast<double>(k) / (count + 1));
-        for (double f : along) {
+        const int count = opt.keys_per_link + (limb && i > 0 ? opt.extra_keys_after_joint : 0);
+        for (int k = 1; k <= count; ++k) {
             KeySpec in;
             in.role = "intermediate";
-            in.point = joint[i] + f * (joint[i + 1] - joint[i]);
+            in.point = joint[i] + (static_cast<double>(k) / (count + 1)) * (joint[i + 1] - joint[i]);
             in.normal = dir[i];
             in.bone = links[i];
             in.fixed_center = false;
