@@ -27,7 +27,7 @@ constexpr int32_t kBatch = 2048;
 void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const float* __restrict u_,
                     const float* __restrict w_, const float* __restrict x_, const float* __restrict y_,
                     const float* __restrict z_, const float* __restrict cos_, const float* __restrict sin_,
-                    float* __restrict px, float* __restrict py, float* __restrict pz) {
+                    float* __restrict p4) {
     const HalfSpanKernel c = k;  // locals: no aliasing with the outputs
     for (int32_t i = begin; i < end; ++i) {
         const float u = u_[i];
@@ -43,9 +43,11 @@ void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const f
         const float cx = qy * lz - qz * ly, cy = qz * lx - qx * lz, cz = qx * ly - qy * lx;
         const float ex = qy * cz - qz * cy, ey = qz * cx - qx * cz, ez = qx * cy - qy * cx;
         const float w = w_[i];
-        px[i] = w * (c.c[0][0] + u * (c.c[1][0] + u * (c.c[2][0] + u * c.c[3][0])) + lx + s * (qw * cx + ex));
-        py[i] = w * (c.c[0][1] + u * (c.c[1][1] + u * (c.c[2][1] + u * c.c[3][1])) + ly + s * (qw * cy + ey));
-        pz[i] = w * (c.c[0][2] + u * (c.c[1][2] + u * (c.c[2][2] + u * c.c[3][2])) + lz + s * (qw * cz + ez));
+        float* o = p4 + 4 * static_cast<size_t>(i);
+        o[0] = w * (c.c[0][0] + u * (c.c[1][0] + u * (c.c[2][0] + u * c.c[3][0])) + lx + s * (qw * cx + ex));
+        o[1] = w * (c.c[0][1] + u * (c.c[1][1] + u * (c.c[2][1] + u * c.c[3][1])) + ly + s * (qw * cy + ey));
+        o[2] = w * (c.c[0][2] + u * (c.c[1][2] + u * (c.c[2][2] + u * c.c[3][2])) + lz + s * (qw * cz + ez));
+        o[3] = 0.0f;
     }
 }
 
@@ -55,7 +57,7 @@ void evaluate_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, const f
 /// evaluate_batch, so it vectorises too (sqrt without errno: -fno-math-errno).
 struct FrameSlots {
     const float* __restrict u, * __restrict w, * __restrict x, * __restrict y, * __restrict z, * __restrict cos, * __restrict sin, * __restrict rx, * __restrict ry, * __restrict rz, * __restrict rw, * __restrict vx, * __restrict vy, * __restrict vz;
-    float* __restrict px, * __restrict py, * __restrict pz;
+    float* __restrict p4;      // 4 per slot: w p, 0 (one load per slot in the vertices' pass)
     float* __restrict frames;  // 8 per slot: w q, then ½ w (p - V) q (one cache line per slot)
 };
 
@@ -98,9 +100,11 @@ void evaluate_frame_batch(const HalfSpanKernel& k, int32_t begin, int32_t end, c
         o[5] = -tx * qz + ty * qw + tz * qx;
         o[6] = tx * qy - ty * qx + tz * qw;
         o[7] = -(tx * qx + ty * qy + tz * qz);
-        f.px[i] = w * pxv;
-        f.py[i] = w * pyv;
-        f.pz[i] = w * pzv;
+        float* p = f.p4 + 4 * static_cast<size_t>(i);
+        p[0] = w * pxv;
+        p[1] = w * pyv;
+        p[2] = w * pzv;
+        p[3] = 0.0f;
     }
 }
 
@@ -170,7 +174,6 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     const size_t n = inf.size();
     const int V = b.vertex_count();
     row_blends_.assign(V, 0.0f);
-    point_bone_ = point_bone;
     std::vector<uint8_t> blended(n, 0);
     for (int v = 0; v < V; ++v) {
         // Blended as frames: a vertex with a sweep influence and two or more influences that
@@ -195,13 +198,12 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
                      [&](uint32_t a, uint32_t c) { return blended[a] != blended[c] ? blended[c] : half[a] < half[c]; });
 
     std::vector<uint32_t> slot_of(n);
-    for (auto* v : {&u_, &w_, &x_, &y_, &z_, &cos_, &sin_, &px_, &py_, &pz_, &rx_, &ry_, &rz_, &rw_, &vx_, &vy_, &vz_})
-        v->resize(n);
+    for (auto* v : {&u_, &w_, &x_, &y_, &z_, &cos_, &sin_, &rx_, &ry_, &rz_, &rw_, &vx_, &vy_, &vz_}) v->resize(n);
     frames_.resize(8 * n);
+    p4_.resize(4 * n);
     std::vector<int32_t> vertex_of(n);
     for (int v = 0; v < V; ++v)
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) vertex_of[i] = v;
-    point_slot_.resize(n);
     for (size_t s = 0; s < n; ++s) {
         const SweepInfluence& f = inf[order[s]];
         slot_of[order[s]] = static_cast<uint32_t>(s);
@@ -212,7 +214,6 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         z_[s] = f.local[2];
         cos_[s] = f.cos_theta;
         sin_[s] = f.sin_theta;
-        point_slot_[s] = point_sweep[order[s]];
         const int vert = vertex_of[order[s]];
         vx_[s] = b.rest_positions[3 * static_cast<size_t>(vert)];
         vy_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 1];
@@ -234,15 +235,39 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     row_offsets_ = b.sweep_offsets;
     rows_.resize(n);
     for (size_t i = 0; i < n; ++i) rows_[i] = slot_of[i];
+    // Two lists of vertices, so neither loop branches on the kind: a blended vertex's
+    // influences as one run of entries grouped by how they join (frames first).
+    for (int v = 0; v < V; ++v) {
+        if (!(row_blends_[v] > 0.0f)) {
+            plain_vertices_.push_back(v);
+            continue;
+        }
+        BlendedVertex row{v, static_cast<uint32_t>(blend_entries_.size()), row_blends_[v], {0, 0, 0, 0}};
+        for (int kind = 0; kind < 4; ++kind) {
+            const bool sweep = kind < 2, point = kind % 2 == 1;
+            const uint32_t first = sweep ? b.sweep_offsets[v] : b.bone_offsets[v];
+            const uint32_t last = sweep ? b.sweep_offsets[v + 1] : b.bone_offsets[v + 1];
+            for (uint32_t i = first; i < last; ++i) {
+                if ((sweep ? point_sweep[i] : point_bone[i]) != point) continue;
+                if (sweep)
+                    blend_entries_.push_back({slot_of[i], inf[i].weight});
+                else
+                    blend_entries_.push_back(
+                        {static_cast<uint32_t>(b.bone_influences[i].bone), b.bone_influences[i].weight});
+                ++row.count[kind];
+            }
+        }
+        blended_vertices_.push_back(row);
+    }
 }
 
 void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
                       const Binding& b, float* out, float* jacobians) {
     if (jacobians) turns_.resize(9 * u_.size());
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
-    const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),  z_.data(),  cos_.data(),
-                           sin_.data(), rx_.data(), ry_.data(), rz_.data(), rw_.data(), vx_.data(),
-                           vy_.data(),  vz_.data(), px_.data(), py_.data(), pz_.data(), frames_.data()};
+    const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),     z_.data(),  cos_.data(),
+                           sin_.data(), rx_.data(), ry_.data(), rz_.data(),    rw_.data(), vx_.data(),
+                           vy_.data(),  vz_.data(), p4_.data(), frames_.data()};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches_.size()), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Batch& bt = batches_[i];
@@ -250,95 +275,118 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 evaluate_frame_batch(half_spans[bt.half_span], bt.begin, bt.end, slots);
             else
                 evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(), y_.data(),
-                               z_.data(), cos_.data(), sin_.data(), px_.data(), py_.data(), pz_.data());
+                               z_.data(), cos_.data(), sin_.data(), p4_.data());
             if (jacobians)
                 evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), rx_.data(),
                                     ry_.data(), rz_.data(), rw_.data(), turns_.data());
         }
     });
     const float* rest = b.rest_positions.data();
-    tbb::parallel_for(tbb::blocked_range<int>(0, b.vertex_count(), 4096), [&](const tbb::blocked_range<int>& r) {
-        for (int v = r.begin(); v != r.end(); ++v) {
-            float p[3] = {0.0f, 0.0f, 0.0f};
+    const float* p4 = p4_.data();
+    const auto store = [&](int v, Float4 p, const float* j) {
+        if (jacobians)
+            for (int row = 0; row < 3; ++row)
+                for (int c = 0; c < 3; ++c)
+                    jacobians[static_cast<size_t>(row) * block + 3 * static_cast<size_t>(v) + c] = j[3 * row + c];
+        out[3 * v] = p[0];
+        out[3 * v + 1] = p[1];
+        out[3 * v + 2] = p[2];
+    };
+    const int plain_count = static_cast<int>(plain_vertices_.size());
+    tbb::parallel_for(tbb::blocked_range<int>(0, plain_count, 4096), [&](const tbb::blocked_range<int>& r) {
+        for (int k = r.begin(); k != r.end(); ++k) {
+            const int v = plain_vertices_[k];
+            Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
             float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
-            if (row_blends_[v] > 0.0f) {
-                // Frames blended among themselves, weighted by their share; points added.
-                FrameBlend blend;
-                const float* x = rest + 3 * v;
-                for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
-                    const uint32_t s = rows_[i];
-                    if (point_slot_[s]) {
-                        p[0] += px_[s];
-                        p[1] += py_[s];
-                        p[2] += pz_[s];
-                        if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
-                    } else {
-                        const float* o = &frames_[8 * static_cast<size_t>(s)];
-                        blend.add_weighted(o, o + 4);
-                    }
+            for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
+                const uint32_t s = rows_[i];
+                p += load4(p4 + 4 * static_cast<size_t>(s));
+                if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
+            }
+            // The bones' matrices blended first, then applied once (as linear blend skinning
+            // does): three 4-wide multiply-adds per bone; its 3x3 part is J's.
+            const uint32_t first = b.bone_offsets[v], last = b.bone_offsets[v + 1];
+            if (first != last) {
+                Float4 m0 = {0.0f, 0.0f, 0.0f, 0.0f}, m1 = m0, m2 = m0;
+                for (uint32_t i = first; i < last; ++i) {
+                    const float w = b.bone_influences[i].weight;
+                    const Affine3x4& m = bones[b.bone_influences[i].bone];
+                    m0 += w * load4(m.m[0]);
+                    m1 += w * load4(m.m[1]);
+                    m2 += w * load4(m.m[2]);
                 }
-                for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {
-                    const BoneInfluence& in = b.bone_influences[i];
-                    const BoneFrame& f = bone_frames[in.bone];
-                    if (point_bone_[i]) {
-                        bones[in.bone].apply_add(in.weight, x, p);
-                        if (jacobians) add_bone_turn(in.weight, bones[in.bone], j);
-                    } else if (f.rigid) {
-                        blend.add_bone(in.weight, f, x);
-                    } else {
-                        float at[3] = {0.0f, 0.0f, 0.0f};
-                        bones[in.bone].apply_add(1.0f, x, at);
-                        const float t[3] = {at[0] - x[0], at[1] - x[1], at[2] - x[2]};
-                        blend.add(in.weight, f.q, t);
-                    }
-                }
-                float q[4] = {0.0f, 0.0f, 0.0f, 1.0f}, move[3];
-                const float share = row_blends_[v];
-                if (blend.apply(move, q)) {
-                    for (int k = 0; k < 3; ++k) p[k] += share * (x[k] + move[k]);
-                    if (jacobians) add_rotation(share, q, j);
-                } else {  // the frames cancel: the convex combination of every influence
-                    p[0] = p[1] = p[2] = 0.0f;
-                    for (float& e : j) e = 0.0f;
-                    for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
-                        const uint32_t s = rows_[i];
-                        p[0] += px_[s];
-                        p[1] += py_[s];
-                        p[2] += pz_[s];
-                        if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
-                    }
-                    for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {
-                        const BoneInfluence& in = b.bone_influences[i];
-                        bones[in.bone].apply_add(in.weight, x, p);
-                        if (jacobians) add_bone_turn(in.weight, bones[in.bone], j);
-                    }
-                }
-            } else {
-                for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
-                    const uint32_t s = rows_[i];
-                    p[0] += px_[s];
-                    p[1] += py_[s];
-                    p[2] += pz_[s];
-                    if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
-                }
-                // The bones' matrices blended first, then applied once (as linear blend
-                // skinning does): 12 multiply-adds per bone, which vectorise; its 3x3 part is J's.
-                const uint32_t first = b.bone_offsets[v], last = b.bone_offsets[v + 1];
-                if (first != last) {
-                    Affine3x4 m{};
-                    for (uint32_t i = first; i < last; ++i)
-                        m.add_weighted(b.bone_influences[i].weight, bones[b.bone_influences[i].bone]);
-                    m.apply_add(1.0f, rest + 3 * v, p);
-                    if (jacobians) add_bone_turn(1.0f, m, j);
+                const float* x = rest + 3 * static_cast<size_t>(v);
+                const Float4 xh = {x[0], x[1], x[2], 1.0f};
+                p += Float4{dot4(m0, xh), dot4(m1, xh), dot4(m2, xh), 0.0f};
+                if (jacobians) {
+                    const Float4 rows[3] = {m0, m1, m2};
+                    for (int row = 0; row < 3; ++row)
+                        for (int c = 0; c < 3; ++c) j[3 * row + c] += rows[row][c];
                 }
             }
-            if (jacobians)
-                for (int row = 0; row < 3; ++row)
-                    for (int c = 0; c < 3; ++c)
-                        jacobians[static_cast<size_t>(row) * block + 3 * static_cast<size_t>(v) + c] = j[3 * row + c];
-            out[3 * v] = p[0];
-            out[3 * v + 1] = p[1];
-            out[3 * v + 2] = p[2];
+            store(v, p, j);
+        }
+    });
+    const int blended_count = static_cast<int>(blended_vertices_.size());
+    tbb::parallel_for(tbb::blocked_range<int>(0, blended_count, 1024), [&](const tbb::blocked_range<int>& r) {
+        for (int k = r.begin(); k != r.end(); ++k) {
+            const BlendedVertex& row = blended_vertices_[k];
+            const int v = row.vertex;
+            const float* x = rest + 3 * static_cast<size_t>(v);
+            const BlendEntry* e = blend_entries_.data() + row.first;
+            const BlendEntry* const frame_slots = e;
+            const BlendEntry* const point_slots = frame_slots + row.count[0];
+            const BlendEntry* const frame_bones = point_slots + row.count[1];
+            const BlendEntry* const point_bones = frame_bones + row.count[2];
+            const BlendEntry* const end = point_bones + row.count[3];
+            // Frames blended among themselves, weighted by their share; points added.
+            Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
+            float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
+            FrameBlend blend;
+            for (const BlendEntry* f = frame_slots; f != point_slots; ++f) {
+                const float* o = &frames_[8 * static_cast<size_t>(f->index)];
+                blend.add_weighted(o, o + 4);
+            }
+            for (const BlendEntry* f = point_slots; f != frame_bones; ++f) {
+                p += load4(p4 + 4 * static_cast<size_t>(f->index));
+                if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
+            }
+            for (const BlendEntry* f = frame_bones; f != point_bones; ++f) {
+                const BoneFrame& bf = bone_frames[f->index];
+                if (bf.rigid) {
+                    blend.add_bone(f->weight, bf, x);
+                } else {
+                    float to[3] = {0.0f, 0.0f, 0.0f};
+                    bones[f->index].apply_add(1.0f, x, to);
+                    const float t[3] = {to[0] - x[0], to[1] - x[1], to[2] - x[2]};
+                    blend.add(f->weight, bf.q, t);
+                }
+            }
+            float at[3] = {0.0f, 0.0f, 0.0f};
+            for (const BlendEntry* f = point_bones; f != end; ++f) {
+                bones[f->index].apply_add(f->weight, x, at);
+                if (jacobians) add_bone_turn(f->weight, bones[f->index], j);
+            }
+            p += load3(at);
+            float q[4] = {0.0f, 0.0f, 0.0f, 1.0f}, move[3];
+            if (blend.apply(move, q)) {
+                p += row.share * Float4{x[0] + move[0], x[1] + move[1], x[2] + move[2], 0.0f};
+                if (jacobians) add_rotation(row.share, q, j);
+            } else {  // the frames cancel: the convex combination of every influence
+                p = Float4{0.0f, 0.0f, 0.0f, 0.0f};
+                for (float& c : j) c = 0.0f;
+                for (const BlendEntry* f = frame_slots; f != frame_bones; ++f) {
+                    p += load4(p4 + 4 * static_cast<size_t>(f->index));
+                    if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
+                }
+                float all[3] = {0.0f, 0.0f, 0.0f};
+                for (const BlendEntry* f = frame_bones; f != end; ++f) {
+                    bones[f->index].apply_add(f->weight, x, all);
+                    if (jacobians) add_bone_turn(f->weight, bones[f->index], j);
+                }
+                p += load3(all);
+            }
+            store(v, p, j);
         }
     });
 }

@@ -59,14 +59,29 @@ private:
     std::vector<Batch> batches_;                        // ranges of one half-span, <= kBatch long
     std::vector<float> u_, w_, x_, y_, z_, cos_, sin_;  // influences sorted by half-span
     std::vector<float> rx_, ry_, rz_, rw_;              // Q_rest(u)^-1 (frame-blended slots)
-    std::vector<float> px_, py_, pz_;                   // per-frame weighted contributions
+    std::vector<float> p4_;                             // per-frame weighted contributions, 4 per slot
     std::vector<float> frames_;                         // per-frame, 8 per frame-blended slot:
                                                         // w q, ½ w (p - V) q
     std::vector<float> turns_;                          // with J only: 9 per slot, w R(u) R_rest(u)^-1
     std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
     std::vector<float> row_blends_;                     // per vertex: its frame share
-    std::vector<uint8_t> point_slot_, point_bone_;      // joins as a point (sorted slot / bone inf.)
     std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
+    std::vector<int32_t> plain_vertices_;               // vertices of one influence, or none blended
+    /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.
+    struct BlendEntry {
+        uint32_t index;
+        float weight;
+    };
+    /// A frame-blended vertex: its entries from `first`, counted by kind in this order: sweep
+    /// frames, sweep points, bone frames, bone points.
+    struct BlendedVertex {
+        int32_t vertex;
+        uint32_t first;
+        float share;
+        uint16_t count[4];
+    };
+    std::vector<BlendedVertex> blended_vertices_;
+    std::vector<BlendEntry> blend_entries_;
 };
 
 }  // namespace sd
