@@ -235,6 +235,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     row_offsets_ = b.sweep_offsets;
     rows_.resize(n);
     for (size_t i = 0; i < n; ++i) rows_[i] = slot_of[i];
+    for (const BoneInfluence& in : b.bone_influences) bone_count_ = std::max(bone_count_, in.bone + 1);
     // Two lists of vertices, so neither loop branches on the kind: a blended vertex's
     // influences as one run of entries grouped by how they join (frames first).
     for (int v = 0; v < V; ++v) {
@@ -292,6 +293,13 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         out[3 * v + 1] = p[1];
         out[3 * v + 2] = p[2];
     };
+    // The bones as columns: a blended matrix then applies with no horizontal sums.
+    bone_columns_.resize(4 * static_cast<size_t>(bone_count_));
+    for (int bone = 0; bone < bone_count_; ++bone)
+        for (int c = 0; c < 4; ++c)
+            bone_columns_[4 * static_cast<size_t>(bone) + c] =
+                Float4{bones[bone].m[0][c], bones[bone].m[1][c], bones[bone].m[2][c], 0.0f};
+    const Float4* columns = bone_columns_.data();
     const int plain_count = static_cast<int>(plain_vertices_.size());
     tbb::parallel_for(tbb::blocked_range<int>(0, plain_count, 4096), [&](const tbb::blocked_range<int>& r) {
         for (int k = r.begin(); k != r.end(); ++k) {
@@ -304,24 +312,24 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
             }
             // The bones' matrices blended first, then applied once (as linear blend skinning
-            // does): three 4-wide multiply-adds per bone; its 3x3 part is J's.
+            // does): four 4-wide multiply-adds per bone; its 3x3 part is J's.
             const uint32_t first = b.bone_offsets[v], last = b.bone_offsets[v + 1];
             if (first != last) {
-                Float4 m0 = {0.0f, 0.0f, 0.0f, 0.0f}, m1 = m0, m2 = m0;
+                Float4 c0 = {0.0f, 0.0f, 0.0f, 0.0f}, c1 = c0, c2 = c0, c3 = c0;
                 for (uint32_t i = first; i < last; ++i) {
                     const float w = b.bone_influences[i].weight;
-                    const Affine3x4& m = bones[b.bone_influences[i].bone];
-                    m0 += w * load4(m.m[0]);
-                    m1 += w * load4(m.m[1]);
-                    m2 += w * load4(m.m[2]);
+                    const Float4* c = &columns[4 * static_cast<size_t>(b.bone_influences[i].bone)];
+                    c0 += w * c[0];
+                    c1 += w * c[1];
+                    c2 += w * c[2];
+                    c3 += w * c[3];
                 }
                 const float* x = rest + 3 * static_cast<size_t>(v);
-                const Float4 xh = {x[0], x[1], x[2], 1.0f};
-                p += Float4{dot4(m0, xh), dot4(m1, xh), dot4(m2, xh), 0.0f};
+                p += c0 * x[0] + c1 * x[1] + c2 * x[2] + c3;
                 if (jacobians) {
-                    const Float4 rows[3] = {m0, m1, m2};
+                    const Float4 cols[3] = {c0, c1, c2};
                     for (int row = 0; row < 3; ++row)
-                        for (int c = 0; c < 3; ++c) j[3 * row + c] += rows[row][c];
+                        for (int c = 0; c < 3; ++c) j[3 * row + c] += cols[c][row];
                 }
             }
             store(v, p, j);

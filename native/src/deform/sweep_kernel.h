@@ -82,6 +82,8 @@ private:
     };
     std::vector<BlendedVertex> blended_vertices_;
     std::vector<BlendEntry> blend_entries_;
+    int bone_count_ = 0;
+    std::vector<Float4> bone_columns_;  // per frame: each bone's 3x4 matrix as 4 columns
 };
 
 }  // namespace sd
