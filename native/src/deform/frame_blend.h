@@ -11,6 +11,14 @@
 
 #include <cmath>
 
+// "No iteration's outputs alias another's inputs" for GCC (the release build's compiler; Clang,
+// which builds the fuzzers, vectorises behind its runtime checks and warns about the pragma).
+#if defined(__GNUC__) && !defined(__clang__)
+#define SD_NO_ALIASING _Pragma("GCC ivdep")
+#else
+#define SD_NO_ALIASING
+#endif
+
 namespace sd {
 
 /// q = (x, y, z, w) rotates v: v + 2 w (q×v) + 2 q×(q×v) (q of unit length).
@@ -92,24 +100,9 @@ public:
         add_weighted(w * q, w * (load4(f.d) + cross3(q, load3(v))));
     }
 
-    /// How far the blended frame moves V, and (if wanted) its unit rotation. False if the
-    /// frames cancel (opposite rotations of equal weight): the caller keeps the convex
-    /// combination.
-    bool apply(float* move, float* rotation = nullptr) const {
-        const float n2 = dot4(real_, real_);
-        if (!(n2 > 1e-12f)) return false;
-        const float inv = 1.0f / std::sqrt(n2);
-        const Float4 c = real_ * inv, e = dual_ * inv;
-        // 2 (e conj(c)).xyz = 2 (c.w e.xyz − e.w c.xyz + c.xyz × e.xyz), the translation of the
-        // normalised dual quaternion.
-        const Float4 m = 2.0f * (c[3] * e - e[3] * c + cross3(c, e));
-        move[0] = m[0];
-        move[1] = m[1];
-        move[2] = m[2];
-        if (rotation)
-            for (int i = 0; i < 4; ++i) rotation[i] = c[i];
-        return true;
-    }
+    /// The sums so far: Σ w q and Σ ½ w t q (on the first frame's hemisphere).
+    Float4 real() const { return real_; }
+    Float4 dual() const { return dual_; }
 
 private:
     Float4 ref_ = {0, 0, 0, 1};
@@ -117,5 +110,51 @@ private:
     Float4 dual_ = {0, 0, 0, 0};
     bool started_ = false;
 };
+
+/// Many vertices' blended frames (FrameBlend sums), as planes of floats (structure of arrays),
+/// normalised and applied: each vertex's point part gets share × (V + how far the blended
+/// frame moves V). A flat loop over independent vertices: it vectorises, and the square root
+/// and division of each vertex no longer sit in one long scalar chain.
+struct BlendedFrames {
+    const float* real[4];  // Σ w q, x y z w
+    const float* dual[4];  // Σ ½ w t q
+    const float* rest[3];  // V
+    const float* share;    // the frames' share of the vertex's weight
+    float* point[3];       // in: the influences that join as points; out: the vertex
+    float* norm2;          // out: |Σ w q|²; at most 1e-12 where the frames cancel (opposite
+                           // rotations of equal weight: the caller keeps the convex combination)
+    float* turn[4];        // out: the blended unit rotation (with J)
+};
+
+inline void apply_blended_frames(const BlendedFrames& f, int begin, int end) {
+    const float* __restrict rx = f.real[0], * __restrict ry = f.real[1], * __restrict rz = f.real[2], * __restrict rw = f.real[3];
+    const float* __restrict dx = f.dual[0], * __restrict dy = f.dual[1], * __restrict dz = f.dual[2], * __restrict dw = f.dual[3];
+    const float* __restrict vx = f.rest[0], * __restrict vy = f.rest[1], * __restrict vz = f.rest[2], * __restrict share = f.share;
+    float* __restrict px = f.point[0], * __restrict py = f.point[1], * __restrict pz = f.point[2];
+    float* __restrict n2_ = f.norm2, * __restrict tx = f.turn[0], * __restrict ty = f.turn[1], * __restrict tz = f.turn[2], * __restrict tw = f.turn[3];
+    SD_NO_ALIASING
+    for (int k = begin; k < end; ++k) {
+        const float n2 = rx[k] * rx[k] + ry[k] * ry[k] + rz[k] * rz[k] + rw[k] * rw[k];
+        // No comparison (GCC does not vectorise a select on floats), no division by zero: the
+        // outputs of a vertex whose frames cancel are not used (norm2 tells the caller).
+        const float inv = 1.0f / std::sqrt(n2 + 1e-30f);
+        const float cx = rx[k] * inv, cy = ry[k] * inv, cz = rz[k] * inv, cw = rw[k] * inv;
+        const float ex = dx[k] * inv, ey = dy[k] * inv, ez = dz[k] * inv, ew = dw[k] * inv;
+        // 2 (e conj(c)).xyz = 2 (c.w e.xyz − e.w c.xyz + c.xyz × e.xyz): the normalised dual
+        // quaternion's translation, how far the blended frame moves V.
+        const float mx = 2.0f * (cw * ex - ew * cx + (cy * ez - cz * ey));
+        const float my = 2.0f * (cw * ey - ew * cy + (cz * ex - cx * ez));
+        const float mz = 2.0f * (cw * ez - ew * cz + (cx * ey - cy * ex));
+        const float s = share[k];
+        px[k] += s * (vx[k] + mx);
+        py[k] += s * (vy[k] + my);
+        pz[k] += s * (vz[k] + mz);
+        n2_[k] = n2;
+        tx[k] = cx;
+        ty[k] = cy;
+        tz[k] = cz;
+        tw[k] = cw;
+    }
+}
 
 }  // namespace sd

@@ -9,14 +9,6 @@
 #include <cmath>
 #include <numeric>
 
-// "No iteration's outputs alias another's inputs" for GCC (the release build's compiler; Clang,
-// which builds the fuzzers, vectorises behind its runtime checks and warns about the pragma).
-#if defined(__GNUC__) && !defined(__clang__)
-#define SD_NO_ALIASING _Pragma("GCC ivdep")
-#else
-#define SD_NO_ALIASING
-#endif
-
 namespace sd {
 
 namespace {
@@ -260,6 +252,14 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         }
         blended_vertices_.push_back(row);
     }
+    const size_t count = blended_vertices_.size();
+    blend_planes_.assign(kBlendPlanes * count, 0.0f);
+    for (size_t k = 0; k < count; ++k) {
+        for (int c = 0; c < 3; ++c)
+            blend_planes_[(rest_x + c) * count + k] =
+                b.rest_positions[3 * static_cast<size_t>(blended_vertices_[k].vertex) + c];
+        blend_planes_[share_plane * count + k] = blended_vertices_[k].share;
+    }
 }
 
 void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
@@ -336,20 +336,31 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         }
     });
     const int blended_count = static_cast<int>(blended_vertices_.size());
+    const size_t count = static_cast<size_t>(blended_count);
+    if (jacobians) blend_turns_.resize(9 * count);
+    float* plane = blend_planes_.data();
+    const auto in = [&](int field) { return plane + static_cast<size_t>(field) * count; };
+    const BlendedFrames planes{{in(real_x), in(real_x + 1), in(real_x + 2), in(real_x + 3)},
+                               {in(dual_x), in(dual_x + 1), in(dual_x + 2), in(dual_x + 3)},
+                               {in(rest_x), in(rest_x + 1), in(rest_x + 2)},
+                               in(share_plane),
+                               {in(point_x), in(point_x + 1), in(point_x + 2)},
+                               in(norm2_plane),
+                               {in(turn_x), in(turn_x + 1), in(turn_x + 2), in(turn_x + 3)}};
     tbb::parallel_for(tbb::blocked_range<int>(0, blended_count, 1024), [&](const tbb::blocked_range<int>& r) {
+        // 1. Each vertex's frames summed (FrameBlend) and its points added, into planes.
         for (int k = r.begin(); k != r.end(); ++k) {
             const BlendedVertex& row = blended_vertices_[k];
-            const int v = row.vertex;
-            const float* x = rest + 3 * static_cast<size_t>(v);
-            const BlendEntry* e = blend_entries_.data() + row.first;
-            const BlendEntry* const frame_slots = e;
+            const float* x = rest + 3 * static_cast<size_t>(row.vertex);
+            const BlendEntry* const frame_slots = blend_entries_.data() + row.first;
             const BlendEntry* const point_slots = frame_slots + row.count[0];
             const BlendEntry* const frame_bones = point_slots + row.count[1];
             const BlendEntry* const point_bones = frame_bones + row.count[2];
             const BlendEntry* const end = point_bones + row.count[3];
-            // Frames blended among themselves, weighted by their share; points added.
             Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
-            float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
+            float* j = jacobians ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
+            if (j)
+                for (int c = 0; c < 9; ++c) j[c] = 0.0f;
             FrameBlend blend;
             for (const BlendEntry* f = frame_slots; f != point_slots; ++f) {
                 const float* o = &frames_[8 * static_cast<size_t>(f->index)];
@@ -357,7 +368,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             }
             for (const BlendEntry* f = point_slots; f != frame_bones; ++f) {
                 p += load4(p4 + 4 * static_cast<size_t>(f->index));
-                if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
+                if (j) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
             }
             for (const BlendEntry* f = frame_bones; f != point_bones; ++f) {
                 const BoneFrame& bf = bone_frames[f->index];
@@ -370,27 +381,52 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                     blend.add(f->weight, bf.q, t);
                 }
             }
-            float at[3] = {0.0f, 0.0f, 0.0f};
+            float points[3] = {0.0f, 0.0f, 0.0f};
             for (const BlendEntry* f = point_bones; f != end; ++f) {
-                bones[f->index].apply_add(f->weight, x, at);
-                if (jacobians) add_bone_turn(f->weight, bones[f->index], j);
+                bones[f->index].apply_add(f->weight, x, points);
+                if (j) add_bone_turn(f->weight, bones[f->index], j);
             }
-            p += load3(at);
-            float q[4] = {0.0f, 0.0f, 0.0f, 1.0f}, move[3];
-            if (blend.apply(move, q)) {
-                p += row.share * Float4{x[0] + move[0], x[1] + move[1], x[2] + move[2], 0.0f};
-                if (jacobians) add_rotation(row.share, q, j);
+            p += load3(points);
+            const Float4 real = blend.real(), dual = blend.dual();
+            for (int c = 0; c < 4; ++c) {
+                plane[(real_x + c) * count + k] = real[c];
+                plane[(dual_x + c) * count + k] = dual[c];
+            }
+            for (int c = 0; c < 3; ++c) plane[(point_x + c) * count + k] = p[c];
+        }
+        // 2. The blended frames normalised and applied, four vertices at a time (this loop
+        //    vectorises: the square roots and divisions were the scalar pass's long chain).
+        apply_blended_frames(planes, r.begin(), r.end());
+        // 3. Out to the vertices; a vertex whose frames cancel keeps the convex combination.
+        for (int k = r.begin(); k != r.end(); ++k) {
+            const BlendedVertex& row = blended_vertices_[k];
+            const int v = row.vertex;
+            float* j = jacobians ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
+            Float4 p;
+            if (plane[norm2_plane * count + k] > 1e-12f) {
+                for (int c = 0; c < 3; ++c) p[c] = plane[(point_x + c) * count + k];
+                p[3] = 0.0f;
+                if (j) {
+                    float q[4];
+                    for (int c = 0; c < 4; ++c) q[c] = plane[(turn_x + c) * count + k];
+                    add_rotation(row.share, q, j);
+                }
             } else {  // the frames cancel: the convex combination of every influence
+                const float* x = rest + 3 * static_cast<size_t>(v);
+                const BlendEntry* const first = blend_entries_.data() + row.first;
+                const BlendEntry* const bones_first = first + row.count[0] + row.count[1];
+                const BlendEntry* const end = bones_first + row.count[2] + row.count[3];
                 p = Float4{0.0f, 0.0f, 0.0f, 0.0f};
-                for (float& c : j) c = 0.0f;
-                for (const BlendEntry* f = frame_slots; f != frame_bones; ++f) {
+                if (j)
+                    for (int c = 0; c < 9; ++c) j[c] = 0.0f;
+                for (const BlendEntry* f = first; f != bones_first; ++f) {
                     p += load4(p4 + 4 * static_cast<size_t>(f->index));
-                    if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
+                    if (j) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
                 }
                 float all[3] = {0.0f, 0.0f, 0.0f};
-                for (const BlendEntry* f = frame_bones; f != end; ++f) {
+                for (const BlendEntry* f = bones_first; f != end; ++f) {
                     bones[f->index].apply_add(f->weight, x, all);
-                    if (jacobians) add_bone_turn(f->weight, bones[f->index], j);
+                    if (j) add_bone_turn(f->weight, bones[f->index], j);
                 }
                 p += load3(all);
             }

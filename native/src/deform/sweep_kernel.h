@@ -82,6 +82,20 @@ private:
     };
     std::vector<BlendedVertex> blended_vertices_;
     std::vector<BlendEntry> blend_entries_;
+    /// Planes (one float per frame-blended vertex each) of blend_planes_: the frames' sums and
+    /// the point part written per frame, the rest position and share constant.
+    enum BlendPlane : int {
+        real_x = 0,
+        dual_x = 4,
+        point_x = 8,
+        rest_x = 11,
+        share_plane = 14,
+        norm2_plane = 15,
+        turn_x = 16,
+        kBlendPlanes = 20
+    };
+    std::vector<float> blend_planes_;
+    std::vector<float> blend_turns_;  // with J: 9 per frame-blended vertex
     int bone_count_ = 0;
     std::vector<Float4> bone_columns_;  // per frame: each bone's 3x4 matrix as 4 columns
 };
