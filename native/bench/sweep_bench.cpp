@@ -16,12 +16,16 @@
 #include <sweepdeform_io/refine.h>
 
 #include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
 #include <tbb/info.h>
 
 #include <chrono>
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -37,8 +41,17 @@ using sd::bench::fit_input;
 
 Case* g_case = nullptr;
 
+/// Argument "threads": 0 for TBB's default, 1 for one thread. On a machine shared with other
+/// work the one-thread figures are the steadier; both are printed.
+std::optional<tbb::global_control> limit_threads(int64_t threads) {
+    if (threads <= 0) return std::nullopt;
+    return std::optional<tbb::global_control>(std::in_place, tbb::global_control::max_allowed_parallelism,
+                                              static_cast<size_t>(threads));
+}
+
 void BM_SweepDeform(benchmark::State& state) {
     Case& c = *g_case;
+    const auto threads = limit_threads(state.range(1));
     c.deformer->set_volume_preservation(state.range(0) != 0, 1.0);
     std::vector<float> out(c.character.positions.size());
     size_t frame = 0;
@@ -64,6 +77,7 @@ void BM_SweepDeformFrames(benchmark::State& state) {
 
 void BM_LinearBlendSkinning4(benchmark::State& state) {
     Case& c = *g_case;
+    const auto threads = limit_threads(state.range(0));
     const int V = static_cast<int>(c.character.positions.size() / 3);
     std::vector<float> out(c.character.positions.size());
     sd::SkeletonPose pose;
@@ -87,12 +101,13 @@ void BM_FitAndBind(benchmark::State& state) {
     }
 }
 
-// Interleaved repetitions and their median keep the ratio honest on a machine whose load
-// changes during the run.
+// Repetitions in random order (main turns random interleaving on) and their median keep the
+// ratio honest on a machine whose load changes during the run.
 BENCHMARK(BM_SweepDeform)
-    ->Arg(1)
-    ->Arg(0)
-    ->ArgName("volume")
+    ->Args({1, 0})
+    ->Args({0, 0})
+    ->Args({1, 1})
+    ->ArgNames({"volume", "threads"})
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.5)
@@ -105,6 +120,9 @@ BENCHMARK(BM_SweepDeformFrames)
     ->Repetitions(7)
     ->ReportAggregatesOnly();
 BENCHMARK(BM_LinearBlendSkinning4)
+    ->Arg(0)
+    ->Arg(1)
+    ->ArgName("threads")
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.5)
@@ -117,7 +135,15 @@ BENCHMARK(BM_FitAndBind)->UseRealTime()->Unit(benchmark::kMillisecond)->Iteratio
 int main(int argc, char** argv) {
     const std::string data = sd::bench::humans_dir_or_skip("sweep_bench");
     if (data.empty()) return 0;
-    benchmark::Initialize(&argc, argv);
+    // Each repetition of each benchmark in random order, unless the command line says otherwise.
+    std::vector<char*> args(argv, argv + argc);
+    std::string interleave = "--benchmark_enable_random_interleaving=true";
+    bool given = false;
+    for (int i = 1; i < argc; ++i)
+        given = given || std::string(argv[i]).rfind("--benchmark_enable_random_interleaving", 0) == 0;
+    if (!given) args.push_back(interleave.data());
+    int count = static_cast<int>(args.size());
+    benchmark::Initialize(&count, args.data());
     Case c;
     const auto t0 = std::chrono::steady_clock::now();
     sd::bench::MotionCase motion = sd::bench::load_motion_case(data);
@@ -140,8 +166,9 @@ int main(int argc, char** argv) {
         const auto it = reporter.ms.find(name);
         return it == reporter.ms.end() ? 0.0 : it->second;
     };
-    const double sweep = ms("BM_SweepDeform/volume:1"), sweep_nv = ms("BM_SweepDeform/volume:0");
-    const double lbs = ms("BM_LinearBlendSkinning4"), fit_bind = ms("BM_FitAndBind");
+    const double sweep = ms("BM_SweepDeform/volume:1/threads:0"), sweep_nv = ms("BM_SweepDeform/volume:0/threads:0");
+    const double lbs = ms("BM_LinearBlendSkinning4/threads:0"), fit_bind = ms("BM_FitAndBind");
+    const double sweep1 = ms("BM_SweepDeform/volume:1/threads:1"), lbs1 = ms("BM_LinearBlendSkinning4/threads:1");
     const double frames = ms("BM_SweepDeformFrames");
     if (sweep > 0 && lbs > 0) {
         std::printf("\nFIGURES (%d vertices)\n", V);
@@ -149,6 +176,11 @@ int main(int argc, char** argv) {
         std::printf("  sweep deformation, volume control off: %.3f ms/frame\n", sweep_nv);
         std::printf("  linear blend skinning, 4 influences  : %.3f ms/frame\n", lbs);
         std::printf("  ratio sweep / LBS                    : %.2f (target <= 1.0)\n", sweep / lbs);
+        if (sweep1 > 0 && lbs1 > 0) {
+            std::printf("  one thread: sweep, volume control on : %.3f ms/frame\n", sweep1);
+            std::printf("  one thread: linear blend skinning    : %.3f ms/frame\n", lbs1);
+            std::printf("  ratio sweep / LBS on one thread      : %.2f (target <= 1.0)\n", sweep1 / lbs1);
+        }
         if (frames > 0) {
             std::printf("  sweep deformation with J (shape keys): %.3f ms/frame\n", frames);
             std::printf("  ratio sweep with J / LBS             : %.2f\n", frames / lbs);

@@ -13,6 +13,7 @@ namespace sd {
 
 namespace {
 constexpr int32_t kBatch = 2048;
+constexpr int kVertexBlock = 2048;  // vertices per task of the vertices' pass
 
 /// w (C(u) + R(u) l) for influences [begin, end) of one half-span. Written as one flat loop
 /// over arrays with loop-invariant coefficients, no branches: it vectorises.
@@ -252,6 +253,15 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         }
         blended_vertices_.push_back(row);
     }
+    // Blocks of kVertexBlock vertices: where each starts in both lists.
+    for (int first = 0;; first += kVertexBlock) {
+        const auto plain_at = std::lower_bound(plain_vertices_.begin(), plain_vertices_.end(), first);
+        const auto blended_at = std::lower_bound(blended_vertices_.begin(), blended_vertices_.end(), first,
+                                                 [](const BlendedVertex& a, int v) { return a.vertex < v; });
+        block_plain_.push_back(static_cast<int32_t>(plain_at - plain_vertices_.begin()));
+        block_blended_.push_back(static_cast<int32_t>(blended_at - blended_vertices_.begin()));
+        if (first >= V) break;
+    }
     const size_t count = blended_vertices_.size();
     blend_planes_.assign(kBlendPlanes * count, 0.0f);
     for (size_t k = 0; k < count; ++k) {
@@ -300,9 +310,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             bone_columns_[4 * static_cast<size_t>(bone) + c] =
                 Float4{bones[bone].m[0][c], bones[bone].m[1][c], bones[bone].m[2][c], 0.0f};
     const Float4* columns = bone_columns_.data();
-    const int plain_count = static_cast<int>(plain_vertices_.size());
-    tbb::parallel_for(tbb::blocked_range<int>(0, plain_count, 4096), [&](const tbb::blocked_range<int>& r) {
-        for (int k = r.begin(); k != r.end(); ++k) {
+    const auto plain_block = [&](const int k0, const int k1) {
+        for (int k = k0; k != k1; ++k) {
             const int v = plain_vertices_[k];
             Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
             float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
@@ -334,7 +343,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             }
             store(v, p, j);
         }
-    });
+    };
     const int blended_count = static_cast<int>(blended_vertices_.size());
     const size_t count = static_cast<size_t>(blended_count);
     if (jacobians) blend_turns_.resize(9 * count);
@@ -347,9 +356,9 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                                {in(point_x), in(point_x + 1), in(point_x + 2)},
                                in(norm2_plane),
                                {in(turn_x), in(turn_x + 1), in(turn_x + 2), in(turn_x + 3)}};
-    tbb::parallel_for(tbb::blocked_range<int>(0, blended_count, 1024), [&](const tbb::blocked_range<int>& r) {
+    const auto blended_block = [&](const int k0, const int k1) {
         // 1. Each vertex's frames summed (FrameBlend) and its points added, into planes.
-        for (int k = r.begin(); k != r.end(); ++k) {
+        for (int k = k0; k != k1; ++k) {
             const BlendedVertex& row = blended_vertices_[k];
             const float* x = rest + 3 * static_cast<size_t>(row.vertex);
             const BlendEntry* const frame_slots = blend_entries_.data() + row.first;
@@ -396,9 +405,9 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         }
         // 2. The blended frames normalised and applied, four vertices at a time (this loop
         //    vectorises: the square roots and divisions were the scalar pass's long chain).
-        apply_blended_frames(planes, r.begin(), r.end());
+        apply_blended_frames(planes, k0, k1);
         // 3. Out to the vertices; a vertex whose frames cancel keeps the convex combination.
-        for (int k = r.begin(); k != r.end(); ++k) {
+        for (int k = k0; k != k1; ++k) {
             const BlendedVertex& row = blended_vertices_[k];
             const int v = row.vertex;
             float* j = jacobians ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
@@ -431,6 +440,15 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 p += load3(all);
             }
             store(v, p, j);
+        }
+    };
+    // One parallel loop over blocks of vertices, each doing its plain and its blended ones:
+    // one wait for the threads, and no two threads writing the same cache lines of `out`.
+    const int blocks = static_cast<int>(block_plain_.size()) - 1;
+    tbb::parallel_for(tbb::blocked_range<int>(0, blocks, 1), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i != r.end(); ++i) {
+            plain_block(block_plain_[i], block_plain_[i + 1]);
+            blended_block(block_blended_[i], block_blended_[i + 1]);
         }
     });
 }
