@@ -572,3 +572,59 @@ def test_corrective_key_driven_by_the_elbow_turns_with_the_forearm():
           f"median {np.median(err):.2e}, max {err.max():.2e} (unturned it would be {np.median(unturned):.2e} off)")
     assert np.median(turn) > 100  # the move did turn with the forearm
     assert err.max() < 0.05 * 0.01
+
+
+def test_shape_keys_turned_in_the_core_match_the_node_group():
+    """Shape keys alone are turned by the core (sd_deform_displaced; the carrier holds plain
+    offsets), anything else by the node group from J in the carrier. Both give the same mesh:
+    two keys at 0.7 and 0.4 (one relative to the other) moving the arms and legs, elbows and
+    knees bent, against the same keys once a vertex group of weight 1 on one of them sends the
+    character down the general path; then a key value changed with the pose held is followed
+    at once."""
+    char = helpers.load("fixture")
+    obj, arm = char.mesh, char.armature
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
+    md = helpers.sub("blender.modifier").find(obj)
+    base = helpers.base_positions(obj)
+    limbs = np.concatenate([_weighted(obj, n) for n in char.elbows + char.knees])
+    rng = np.random.default_rng(16)
+    obj.shape_key_add(name="Basis", from_mix=False)
+    first = obj.shape_key_add(name="Swell", from_mix=False)
+    swell = base.copy()
+    swell[limbs] += rng.normal(0.0, 0.004, (len(limbs), 3)).astype(np.float32)
+    first.data.foreach_set("co", swell.reshape(-1))
+    second = obj.shape_key_add(name="Swell more", from_mix=False)
+    more = swell.copy()
+    more[limbs] += 0.01 * base[limbs] / np.linalg.norm(base[limbs], axis=1)[:, None]
+    second.data.foreach_set("co", more.reshape(-1))
+    second.relative_key = first
+    first.value, second.value = 0.7, 0.4
+    helpers.pose_limbs(char, elbow=1.5, knee=1.2)
+    calls = core_calls()
+
+    def evaluate():
+        bpy.context.view_layer.update()
+        carrier = helpers.sub("blender.modifier").get_carrier(md)
+        return helpers.evaluated_positions(obj)[0], len(carrier.data.vertices)
+
+    in_core, points = evaluate()
+    assert core_calls() > calls and points == len(base)  # plain offsets: the core turned the keys
+    everywhere = obj.vertex_groups.new(name="Everywhere")
+    everywhere.add(range(len(base)), 1.0, 'REPLACE')
+    first.vertex_group = everywhere.name
+    by_nodes, points = evaluate()
+    assert points == 5 * len(base)  # J in the carrier: the node group turned them
+    diag = helpers.diagonal(base)
+    err = np.linalg.norm(in_core - by_nodes, axis=1)
+    keyed = np.linalg.norm(more - base, axis=1) > 0
+    print(f"\ntwo keys (0.7, 0.4) on {keyed.sum()} limb vertices, elbows 1.5 and knees 1.2 rad: core against node "
+          f"group max {err.max():.2e} (diagonal {diag:.3f})")
+    assert err.max() <= 1e-5 * diag
+    first.vertex_group = ""
+    second.value = 0.9  # the pose held: the new value shows at once
+    in_core, _ = evaluate()
+    first.vertex_group = everywhere.name
+    by_nodes, _ = evaluate()
+    err = np.linalg.norm(in_core - by_nodes, axis=1)
+    assert err.max() <= 1e-5 * diag

@@ -33,6 +33,8 @@ class Entry:
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self._packed = None
+        self._mesh_rest = self._moves = self._turned = self._moves_last = None
+        self.moves_seen = 0  # changes of the shape keys' displacements (moves_version)
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
         self.matrices_seen = None  # (object, armature) world matrices last found usable
         self.settings = None
@@ -154,8 +156,37 @@ class Entry:
         if self._packed is None:
             V = self.deformer.vertex_count
             self._packed = np.empty((5 * V, 3), np.float32)
-            self._packed[4 * V:] = mesh_data.vertex_positions(obj.data)
+            self._packed[4 * V:] = self.mesh_rest(obj)
         return self._packed
+
+    def mesh_rest(self, obj):
+        """(V,3) float32 the mesh's own vertex positions (mesh space), read once: what shape
+        keys and earlier modifiers are measured from."""
+        if self._mesh_rest is None:
+            self._mesh_rest = mesh_data.vertex_positions(obj.data)
+        return self._mesh_rest
+
+    def moves_buffer(self):
+        """(V,3) float32 for the shape keys' displacements (shape_keys.displacements)."""
+        if self._moves is None:
+            self._moves = np.empty((self.deformer.vertex_count, 3), np.float32)
+        return self._moves
+
+    def turned_buffer(self):
+        """(V,3) float32 for the displacements turned by the core (sd_deform_displaced)."""
+        if self._turned is None:
+            self._turned = np.empty((self.deformer.vertex_count, 3), np.float32)
+        return self._turned
+
+    def moves_version(self, moves):
+        """`moves`, or None when no vertex moves; self.moves_seen counts the changes of what
+        the keys do (a value, a key's shape), so that the frame's key sees them."""
+        if not moves.any():
+            return None
+        if self._moves_last is None or not np.array_equal(moves, self._moves_last):
+            self._moves_last = moves.copy()
+            self.moves_seen += 1
+        return moves
 
     def forget_writes(self):
         """The next evaluation computes and writes again, whatever it finds."""

@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from ..core import arrays, checks, native, output_check
-from . import anatomy, bind_state, binding, corrections, deformer_cache, modifier, persistence
+from . import anatomy, bind_state, binding, corrections, deformer_cache, modifier, persistence, shape_keys
 
 #: What the user is told after a refused frame, and what happens.
 KEPT = "the mesh keeps its last good deformation until this is fixed"
@@ -209,10 +209,18 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     corrections_key = corrections.sync_corrections(e, obj_eval.sweep_deform if render else s)
     anatomy_key = anatomy.sync_anatomy(e, obj, obj_eval.sweep_deform if render else s)
     # Shape keys or modifiers before Sweep Deform ride along through each vertex's local linear
-    # map (not with the anatomical effects, which stay position-based).
+    # map (not with the anatomical effects, which stay position-based): shape keys alone are
+    # turned in the core (their displacement is known here), anything else by the node group
+    # from J in the carrier.
     with_frames = e.anatomy is None and modifier.needs_frames(obj, md, render)
+    moves = None
+    if with_frames and not modifier.moved_before(obj, md, render):
+        moves = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.moves_buffer(), e.scratch)
+        if moves is not None:
+            with_frames = False
+            moves = e.moves_version(moves)  # None when no key moves anything
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
-           corrections_key, anatomy_key, with_frames)
+           corrections_key, anatomy_key, with_frames, e.moves_seen if moves is not None else 0)
     # The object's own carriers (made here for a copy of a bound object, a library override or
     # a file bound by an older version; not during a render, which cannot add data). A render
     # writes the render carrier (every render path runs frame_change_post with its depsgraph,
@@ -248,6 +256,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
             packed = e.packed_buffer(obj)
             frames = packed[n:4 * n].reshape(3, n, 3)
             deformed, _ = e.deformer.deform_frames(pose, e.deformer.positions, frames)
+        elif moves is not None:
+            moved = moves if to_mesh is None else np.matmul(moves, np.asarray(linear, np.float32).T)
+            deformed, turned = e.deformer.deform_displaced(pose, np.ascontiguousarray(moved), e.deformer.positions,
+                                                           e.turned_buffer())
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
@@ -256,7 +268,11 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refused_key = key
         return False
     deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
+    if moves is not None:  # the keys' displacement, turned: offset + (J - I) d in mesh space
+        deformed = np.add(deformed, turned, out=turned)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+    if moves is not None:
+        offsets -= moves
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets
         arrays.pack_frames(frames, linear, to_mesh)

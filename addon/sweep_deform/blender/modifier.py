@@ -401,14 +401,19 @@ def write_offsets(carrier_obj, offsets):
     mesh.update()
 
 
+def moved_before(obj, md, render=False):
+    """Whether an active modifier before Sweep Deform moves the vertices."""
+    stack = list(obj.modifiers)
+    return any(active(m, render) for m in stack[:stack.index(md)])
+
+
 def needs_frames(obj, md, render=False):
     """Whether something before Sweep Deform moves the vertices (a shape key, an active
     modifier), so that the local linear maps are needed to carry it along."""
     keys = obj.data.shape_keys
     if keys is not None and len(keys.key_blocks) > 1:
         return True
-    stack = list(obj.modifiers)
-    return any(active(m, render) for m in stack[:stack.index(md)])
+    return moved_before(obj, md, render)
 
 
 def clear_offsets(obj):

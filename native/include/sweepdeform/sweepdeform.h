@@ -52,8 +52,8 @@ extern "C" {
 
 /* Bumped whenever a signature or a struct layout of this header changes, or functions are
  * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
- * parameters renamed; 3: the output check, sd_output_check_*). */
-#define SD_ABI_VERSION 3
+ * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced). */
+#define SD_ABI_VERSION 4
 
 typedef enum sd_status {
     SD_OK = 0,
@@ -197,6 +197,18 @@ SD_API sd_status sd_deform(sd_deformer* deformer, int32_t bone_count, const floa
  */
 SD_API sd_status sd_deform_frames(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
                                   float* out_positions, float* out_frames);
+
+/*
+ * sd_deform, and each vertex's displacement turned by its local linear map (the J of
+ * sd_deform_frames), without writing J:
+ *  displacements  #V*3 armature space, finite: d, where a shape key or an earlier deformation
+ *                 put the vertex relative to the bound rest
+ *  out_positions  #V*3 the deformed rest positions (as sd_deform)
+ *  out_turned     #V*3 J d: the displaced vertex deforms to out_positions + out_turned
+ * A caller whose shape keys move few vertices pays for J d, not for 9 floats a vertex.
+ */
+SD_API sd_status sd_deform_displaced(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
+                                     const float* displacements, float* out_positions, float* out_turned);
 
 /*
  * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.

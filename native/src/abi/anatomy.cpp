@@ -21,6 +21,7 @@ namespace {
 
 using sd::abi::fail;
 using sd::abi::guarded;
+using sd::abi::require_finite;
 using sd::anatomy::JointSettings;
 
 constexpr int32_t kMaxTriangles = 1 << 28;
@@ -67,11 +68,6 @@ sd_status check_pose(const sd::anatomy::Anatomy& a, int32_t bone_count, const fl
         return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) + " differs from the mesh's " +
                                          std::to_string(a.vertex_count()));
     return SD_OK;
-}
-
-void require_finite(const float* p, size_t n, const char* what) {
-    for (size_t i = 0; i < n; ++i)
-        SD_REQUIRE(std::isfinite(p[i]), std::string(what) + " has a non-finite value at index " + std::to_string(i));
 }
 
 }  // namespace

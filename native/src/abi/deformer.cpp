@@ -15,6 +15,7 @@ namespace {
 
 using sd::abi::fail;
 using sd::abi::guarded;
+using sd::abi::require_finite;
 
 }  // namespace
 
@@ -82,6 +83,18 @@ sd_status sd_deform_frames(sd_deformer* d, int32_t bone_count, const float* pose
         SD_REQUIRE(d && pose && out_positions && out_frames, "deformer, pose, out_positions or out_frames is NULL");
         if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
         d->deformer->deform_frames(pose, out_positions, out_frames);
+        return SD_OK;
+    });
+}
+
+sd_status sd_deform_displaced(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
+                              const float* displacements, float* out_positions, float* out_turned) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && pose && displacements && out_positions && out_turned,
+                   "deformer, pose, displacements, out_positions or out_turned is NULL");
+        if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
+        require_finite(displacements, 3 * static_cast<size_t>(vertex_count), "displacements");
+        d->deformer->deform_displaced(pose, displacements, out_positions, out_turned);
         return SD_OK;
     });
 }

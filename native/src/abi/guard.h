@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <memory>
 #include <new>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,12 @@ inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, i
 }
 
 /// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
+/// Every value of p[0..n) finite, or SD_ERR_INVALID_ARGUMENT naming the first that is not.
+inline void require_finite(const float* p, size_t n, const char* what) {
+    for (size_t i = 0; i < n; ++i)
+        SD_REQUIRE(std::isfinite(p[i]), std::string(what) + " has a non-finite value at index " + std::to_string(i));
+}
+
 inline const sd::Sweep& sweep_of(const sd_rig* rig, int32_t sweep) {
     SD_REQUIRE(rig, "rig is NULL");
     SD_REQUIRE(sweep >= 0 && sweep < static_cast<int32_t>(rig->rig.sweeps.size()),

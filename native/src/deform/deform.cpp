@@ -329,20 +329,33 @@ void Deformer::deform(const float* pose, float* out) {
         bones_ = bone_affines(pose_);
         bone_frames_.resize(bones_.size());
         for (size_t b = 0; b < bones_.size(); ++b) bone_frames_[b] = bone_frame(bones_[b].m);
-        kernel_.run(half_spans_.data(), bones_.data(), bone_frames_.data(), binding_, out, jacobians_);
+        kernel_.run(half_spans_.data(), bones_.data(), bone_frames_.data(), binding_, out, maps_);
     });
 }
 
 void Deformer::deform_frames(const float* pose, float* out, float* frames) {
+    SweepKernel::LocalMaps maps;
+    maps.jacobians = frames;
+    deform_with(pose, out, maps);
+}
+
+void Deformer::deform_displaced(const float* pose, const float* displacements, float* out, float* turned) {
+    SweepKernel::LocalMaps maps;
+    maps.displacements = displacements;
+    maps.turned = turned;
+    deform_with(pose, out, maps);
+}
+
+void Deformer::deform_with(const float* pose, float* out, const SweepKernel::LocalMaps& maps) {
     const std::lock_guard<std::recursive_mutex> guard(mutex_);
-    jacobians_ = frames;
+    maps_ = maps;
     try {
         deform(pose, out);
     } catch (...) {
-        jacobians_ = nullptr;
+        maps_ = {};
         throw;
     }
-    jacobians_ = nullptr;
+    maps_ = {};
 }
 
 }  // namespace sd

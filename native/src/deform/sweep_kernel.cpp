@@ -273,8 +273,11 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
 }
 
 void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
-                      const Binding& b, float* out, float* jacobians) {
-    if (jacobians) turns_.resize(9 * u_.size());
+                      const Binding& b, float* out, const LocalMaps& maps) {
+    float* const jacobians = maps.jacobians;
+    // J is assembled whenever it is asked for, written or applied to a displacement.
+    const bool with_j = maps.jacobians != nullptr || maps.displacements != nullptr;
+    if (with_j) turns_.resize(9 * u_.size());
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
     const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),     z_.data(),  cos_.data(),
                            sin_.data(), rx_.data(), ry_.data(), rz_.data(),    rw_.data(), vx_.data(),
@@ -287,7 +290,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             else
                 evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(), y_.data(),
                                z_.data(), cos_.data(), sin_.data(), p4_.data());
-            if (jacobians)
+            if (with_j)
                 evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), rx_.data(),
                                     ry_.data(), rz_.data(), rw_.data(), turns_.data());
         }
@@ -295,6 +298,12 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const float* rest = b.rest_positions.data();
     const float* p4 = p4_.data();
     const auto store = [&](int v, Float4 p, const float* j) {
+        if (maps.displacements) {
+            const float* d = maps.displacements + 3 * static_cast<size_t>(v);
+            float* t = maps.turned + 3 * static_cast<size_t>(v);
+            for (int row = 0; row < 3; ++row)
+                t[row] = j[3 * row] * d[0] + j[3 * row + 1] * d[1] + j[3 * row + 2] * d[2];
+        }
         if (jacobians)
             for (int row = 0; row < 3; ++row)
                 for (int c = 0; c < 3; ++c)
@@ -318,7 +327,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                 const uint32_t s = rows_[i];
                 p += load4(p4 + 4 * static_cast<size_t>(s));
-                if (jacobians) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
+                if (with_j) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
             }
             // The bones' matrices blended first, then applied once (as linear blend skinning
             // does): four 4-wide multiply-adds per bone; its 3x3 part is J's.
@@ -335,7 +344,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 }
                 const float* x = rest + 3 * static_cast<size_t>(v);
                 p += c0 * x[0] + c1 * x[1] + c2 * x[2] + c3;
-                if (jacobians) {
+                if (with_j) {
                     const Float4 cols[3] = {c0, c1, c2};
                     for (int row = 0; row < 3; ++row)
                         for (int c = 0; c < 3; ++c) j[3 * row + c] += cols[c][row];
@@ -346,7 +355,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     };
     const int blended_count = static_cast<int>(blended_vertices_.size());
     const size_t count = static_cast<size_t>(blended_count);
-    if (jacobians) blend_turns_.resize(9 * count);
+    if (with_j) blend_turns_.resize(9 * count);
     float* plane = blend_planes_.data();
     const auto in = [&](int field) { return plane + static_cast<size_t>(field) * count; };
     const BlendedFrames planes{{in(real_x), in(real_x + 1), in(real_x + 2), in(real_x + 3)},
@@ -367,7 +376,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             const BlendEntry* const point_bones = frame_bones + row.count[2];
             const BlendEntry* const end = point_bones + row.count[3];
             Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
-            float* j = jacobians ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
+            float* j = with_j ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
             if (j)
                 for (int c = 0; c < 9; ++c) j[c] = 0.0f;
             FrameBlend blend;
@@ -410,7 +419,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         for (int k = k0; k != k1; ++k) {
             const BlendedVertex& row = blended_vertices_[k];
             const int v = row.vertex;
-            float* j = jacobians ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
+            float* j = with_j ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
             Float4 p;
             if (plane[norm2_plane * count + k] > 1e-12f) {
                 for (int c = 0; c < 3; ++c) p[c] = plane[(point_x + c) * count + k];

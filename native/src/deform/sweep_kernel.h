@@ -40,16 +40,21 @@ public:
                 const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<uint8_t>& point_sweep,
                 const std::vector<uint8_t>& point_bone);
 
+    /// What run() gives besides the positions: each vertex's local linear map J (blended as
+    /// its position was: Σ w R(u) R_rest(u)^-1 over its sweeps, Σ w M_b (3x3) over its bones,
+    /// and for a frame-blended vertex the blended rotation with its share plus the influences
+    /// that join as points), written out, or applied to a displacement per vertex.
+    struct LocalMaps {
+        float* jacobians = nullptr;            // 3 blocks of #V*3 (block r: row r of every vertex's J)
+        const float* displacements = nullptr;  // #V*3: d per vertex, and then
+        float* turned = nullptr;               // #V*3 receives J d
+    };
+
     /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v] for a vertex of one influence, the
     /// rigid-frame blend of the same for a vertex of several (#V*3).
     /// @param bone_frames     per bone, M_b as a dual quaternion (frame_blend.h)
-    /// @param jacobians       optional, 3 blocks of #V*3 (block r: row r of every vertex's J):
-    ///                        each vertex's local linear map, blended as its position was —
-    ///                        Σ w R(u) R_rest(u)^-1 over its sweeps, Σ w M_b (3x3) over its bones,
-    ///                        and for a frame-blended vertex the blended rotation with its
-    ///                        share plus the influences that join as points
     void run(const HalfSpanKernel* half_spans, const Affine3x4* bones, const BoneFrame* bone_frames,
-             const Binding& binding, float* out, float* jacobians = nullptr);
+             const Binding& binding, float* out, const LocalMaps& maps);
 
 private:
     struct Batch {

@@ -200,6 +200,37 @@ TEST(CApi, InvalidPosesAreRefusedAndLeaveTheOutputAlone) {
     for (int r = 0; r < 3; ++r)  // block r: row r of every vertex's J
         for (int v = 0; v < V; ++v)
             for (int c = 0; c < 3; ++c) ASSERT_NEAR(frames[3 * (r * V + v) + c], r == c ? 1.0f : 0.0f, 1e-6f);
+    // sd_deform_displaced, the forearm turned 90° about z at the elbow: the positions of
+    // sd_deform, and each displacement turned by the J sd_deform_frames gives.
+    std::vector<float> bent = arm.rest;
+    for (int bone = 1; bone < 3; ++bone) {
+        const float turned_z[16] = {0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 1, bone == 1 ? 0.0f : 1.0f, 0, 1};
+        std::copy(turned_z, turned_z + 16, &bent[16 * static_cast<size_t>(bone)]);
+    }
+    std::vector<float> disp(3 * V), at(3 * V, 42.0f), turned(3 * V, 42.0f);
+    for (int i = 0; i < 3 * V; ++i) disp[i] = 0.01f * static_cast<float>((i * 7) % 5 - 2);
+    disp[4] = kNaN;
+    expect_error(sd_deform_displaced(d, 3, bent.data(), V, disp.data(), at.data(), turned.data()),
+                 SD_ERR_INVALID_ARGUMENT, "NaN displacement");
+    expect_error(sd_deform_displaced(d, 3, bent.data(), V, nullptr, at.data(), turned.data()), SD_ERR_INVALID_ARGUMENT,
+                 "NULL displacements");
+    for (float x : at) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    for (float x : turned) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    disp[4] = 0.0f;
+    ASSERT_EQ(sd_deform_displaced(d, 3, bent.data(), V, disp.data(), at.data(), turned.data()), SD_OK)
+        << sd_last_error();
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, out.data()), SD_OK);
+    ASSERT_EQ(sd_deform_frames(d, 3, bent.data(), V, pos.data(), frames.data()), SD_OK);
+    float moved = 0.0f;  // how far J d is from d somewhere: the forearm's turn
+    for (int v = 0; v < V; ++v)
+        for (int r = 0; r < 3; ++r) {
+            ASSERT_NEAR(at[3 * v + r], out[3 * v + r], 1e-6f);
+            float jd = 0.0f;
+            for (int c = 0; c < 3; ++c) jd += frames[3 * (r * V + v) + c] * disp[3 * v + c];
+            ASSERT_NEAR(turned[3 * v + r], jd, 1e-6f) << "vertex " << v << " row " << r;
+            moved = std::max(moved, std::abs(turned[3 * v + r] - disp[3 * v + r]));
+        }
+    EXPECT_GT(moved, 0.02f);
     sd_deformer_destroy(d);
     sd_binding_destroy(b);
 }
