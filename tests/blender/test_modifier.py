@@ -582,7 +582,7 @@ def test_shape_keys_turned_in_the_core_match_the_node_group():
     character down the general path; then a key value changed with the pose held is followed
     at once."""
     char = helpers.load("fixture")
-    obj, arm = char.mesh, char.armature
+    obj = char.mesh
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
     md = helpers.sub("blender.modifier").find(obj)
