@@ -8,8 +8,9 @@ poses, in the same Blender run. Prints a table; never fails on speed.
 
 Characters: ``fixture`` (blend_fixtures/character.blend, 75,394 vertices, bone-heat weights, up
 to 6 per vertex), ``mh53k`` (../shared/data MakeHuman subdiv1, 53,514 vertices, at most 4).
-``--shape-key 1``: a relative shape key at value 1 on the mesh (all setups deform the keyed
-mesh; Sweep Deform carries it along with sd_deform_frames). Rig: the core's automatic fitting (``--rig fit``, the product's path) or the bone rig of
+``--shape-key 1``: a relative shape key at value 1 moving every vertex (all setups deform the
+keyed mesh; Sweep Deform turns it in the core, sd_deform_displaced); ``--shape-key head`` the
+same key on the top tenth of the body only, as a face's keys are. Rig: the core's automatic fitting (``--rig fit``, the product's path) or the bone rig of
 bone_rig.py (``--rig bones``). Two ways to change the pose, each timed around the call that brings the evaluated mesh
 up to date:
 
@@ -40,7 +41,7 @@ def args():
     for i in range(0, len(argv) - 1, 2):
         opts[argv[i].lstrip("-")] = argv[i + 1]
     opts["frames"] = int(opts["frames"])
-    opts["shape-key"] = opts["shape-key"] not in ("0", "no", "")
+    opts["shape-key"] = {"0": None, "no": None, "": None, "head": "head"}.get(opts["shape-key"], "all")
     return opts
 
 
@@ -152,15 +153,19 @@ def ms(ts):
     return statistics.median(ts) * 1e3, statistics.mean(ts) * 1e3
 
 
-def add_shape_key(body):
-    """A relative shape key at value 1 moving every vertex 1 mm along X: Sweep Deform then
-    carries it along with each vertex's local linear map (sd_deform_frames), the Armature
-    modifier deforms the keyed mesh."""
+def add_shape_key(body, region="all"):
+    """A relative shape key at value 1 moving every vertex ("all"), or those of the top tenth
+    of the body ("head"), 1 mm along X: Sweep Deform then carries it along with each vertex's
+    local linear map, the Armature modifier deforms the keyed mesh."""
     body.shape_key_add(name="Basis", from_mix=False)
     kb = body.shape_key_add(name="Key", from_mix=False)
     co = np.empty(len(body.data.vertices) * 3, np.float32)
     body.data.vertices.foreach_get("co", co)
-    co[0::3] += 0.001
+    if region == "head":
+        z = co[2::3]
+        co[0::3] += np.where(z >= np.quantile(z, 0.9), np.float32(0.001), np.float32(0.0))
+    else:
+        co[0::3] += 0.001
     kb.data.foreach_set("co", co)
     kb.value = 1.0
 
@@ -180,7 +185,7 @@ def measure(key, n, rig="fit", shape_key=False):
     assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
     bind_s = time.perf_counter() - t0
     if shape_key:
-        add_shape_key(body)
+        add_shape_key(body, shape_key)
     V = len(body.data.vertices)
     pose_list = poses(n + n // (BLOCK - WARM) * WARM + BLOCK, bones)
 
@@ -232,7 +237,7 @@ def measure(key, n, rig="fit", shape_key=False):
             check_deformed(body, mode)
 
     print(f"\n{key}: {V:,} vertices, {len(arm.pose.bones)} bones, {body.sweep_deform.sweep_count} sweeps, "
-          f"{'fitted' if rig == 'fit' else 'bone rig'}{', a shape key at 1' if shape_key else ''}, fit+bind {bind_s * 1e3:.0f} ms; Blender {bpy.app.version_string}; {n} frames; median / mean ms")
+          f"{'fitted' if rig == 'fit' else 'bone rig'}{f', a shape key at 1 ({shape_key})' if shape_key else ''}, fit+bind {bind_s * 1e3:.0f} ms; Blender {bpy.app.version_string}; {n} frames; median / mean ms")
     print(f"  {'':32s}{'posing':>16s}{'playback':>16s}")
     for mode, label in (('sweep', 'Sweep Deform'), ('sweep_inputs', 'Sweep, off modifier reads bones'),
                         ('armature', 'Armature modifier'), ('armature_dqs', 'Armature, Preserve Volume')):

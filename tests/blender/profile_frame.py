@@ -5,7 +5,7 @@ modifier switched off but keeping its object), and the add-on's handler alone. P
 profile; never fails on speed.
 
     BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
-        --python tests/blender/profile_frame.py -- [--zip ZIP] [--frames N] [--shape-key 1]
+        --python tests/blender/profile_frame.py -- [--zip ZIP] [--frames N] [--shape-key 1|head]
 """
 
 import cProfile
@@ -31,7 +31,7 @@ def main():
     bpy.context.view_layer.objects.active = body
     assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
     if opts["shape-key"]:
-        measure_frame.add_shape_key(body)
+        measure_frame.add_shape_key(body, opts["shape-key"])
     n = opts["frames"]
     pose_list = measure_frame.poses(n + 5, bones)
     measure_frame.time_posing(body, arm, pose_list[:5])  # warm: the check, the carriers, the buffers

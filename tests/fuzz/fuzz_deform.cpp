@@ -21,6 +21,21 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const int32_t V = sd_binding_vertex_count(binding);
     std::vector<float> out(3 * static_cast<size_t>(V));
     if (sd_deform(d, 3, pose, V, out.data()) == SD_OK) sdfuzz::require_finite(out.data(), out.size());
+    // The same pose with some vertices displaced (shape keys): an error, or finite both.
+    std::vector<int32_t> moved;
+    std::vector<float> moves;
+    for (int32_t v = 0; v < V; ++v) {
+        const uint8_t mode = in.take<uint8_t>();
+        if (mode < 64) continue;
+        moved.push_back(mode < 80 ? V - 1 - v : v);  // sometimes out of order
+        for (int c = 0; c < 3; ++c) moves.push_back(mode < 192 ? in.take<int8_t>() / 64.0f : in.take<float>());
+    }
+    std::vector<float> turned(moves.size());
+    if (sd_deform_displaced(d, 3, pose, V, static_cast<int32_t>(moved.size()), moved.data(), moves.data(), out.data(),
+                            turned.data()) == SD_OK) {
+        sdfuzz::require_finite(out.data(), out.size());
+        sdfuzz::require_finite(turned.data(), turned.size());
+    }
     sd_deformer_destroy(d);
     return 0;
 }

@@ -33,8 +33,8 @@ class Entry:
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self._packed = None
-        self._mesh_rest = self._moves = self._turned = self._moves_last = None
-        self.moves_seen = 0  # changes of the shape keys' displacements (moves_version)
+        self._mesh_rest = self._moves = self._moves_last = None
+        self.moves_seen = 0  # changes of the shape keys' displacements (moving)
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
         self.matrices_seen = None  # (object, armature) world matrices last found usable
         self.settings = None
@@ -172,21 +172,20 @@ class Entry:
             self._moves = np.empty((self.deformer.vertex_count, 3), np.float32)
         return self._moves
 
-    def turned_buffer(self):
-        """(V,3) float32 for the displacements turned by the core (sd_deform_displaced)."""
-        if self._turned is None:
-            self._turned = np.empty((self.deformer.vertex_count, 3), np.float32)
-        return self._turned
-
-    def moves_version(self, moves):
-        """`moves`, or None when no vertex moves; self.moves_seen counts the changes of what
-        the keys do (a value, a key's shape), so that the frame's key sees them."""
-        if not moves.any():
+    def moving(self, d):
+        """(the vertices `d` (V,3) moves, int32 ascending; their rows of d), or None when none
+        moves; self.moves_seen counts the changes (a key's value or shape), so that the frame's
+        key sees them."""
+        bits = d.view(np.uint32)
+        moved = np.flatnonzero(bits[:, 0] | bits[:, 1] | bits[:, 2]).astype(np.int32)
+        if moved.size == 0:
             return None
-        if self._moves_last is None or not np.array_equal(moves, self._moves_last):
-            self._moves_last = moves.copy()
+        rows = d[moved]
+        last = self._moves_last
+        if last is None or not (np.array_equal(moved, last[0]) and np.array_equal(rows, last[1])):
+            self._moves_last = (moved, rows)
             self.moves_seen += 1
-        return moves
+        return moved, rows
 
     def forget_writes(self):
         """The next evaluation computes and writes again, whatever it finds."""

@@ -213,12 +213,12 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # turned in the core (their displacement is known here), anything else by the node group
     # from J in the carrier.
     with_frames = e.anatomy is None and modifier.needs_frames(obj, md, render)
-    moves = None
+    moves = None  # (the vertices the keys move, their displacements (M,3) mesh space)
     if with_frames and not modifier.moved_before(obj, md, render):
-        moves = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.moves_buffer(), e.scratch)
-        if moves is not None:
+        d = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.moves_buffer(), e.scratch)
+        if d is not None:
             with_frames = False
-            moves = e.moves_version(moves)  # None when no key moves anything
+            moves = e.moving(d)  # None when no key moves anything
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
            corrections_key, anatomy_key, with_frames, e.moves_seen if moves is not None else 0)
     # The object's own carriers (made here for a copy of a bound object, a library override or
@@ -257,9 +257,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
             frames = packed[n:4 * n].reshape(3, n, 3)
             deformed, _ = e.deformer.deform_frames(pose, e.deformer.positions, frames)
         elif moves is not None:
-            moved = moves if to_mesh is None else np.matmul(moves, np.asarray(linear, np.float32).T)
-            deformed, turned = e.deformer.deform_displaced(pose, np.ascontiguousarray(moved), e.deformer.positions,
-                                                           e.turned_buffer())
+            moved, d = moves
+            d_armature = d if to_mesh is None else np.matmul(d, np.asarray(linear, np.float32).T)
+            deformed, turned = e.deformer.deform_displaced(pose, moved, np.ascontiguousarray(d_armature),
+                                                           e.deformer.positions, np.empty_like(d))
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:
@@ -268,11 +269,9 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refused_key = key
         return False
     deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
-    if moves is not None:  # the keys' displacement, turned: offset + (J - I) d in mesh space
-        deformed = np.add(deformed, turned, out=turned)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
-    if moves is not None:
-        offsets -= moves
+    if moves is not None:  # the keys' displacements, turned: offset + (J - I) d in mesh space
+        offsets[moved] += (turned if to_mesh is None else turned @ to_mesh) - d
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets
         arrays.pack_frames(frames, linear, to_mesh)

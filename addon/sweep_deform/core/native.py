@@ -173,7 +173,7 @@ SIGNATURES = {
     "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32]),
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
     "sd_deform_frames": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT, F32_OUT]),
-    "sd_deform_displaced": (Status, [DeformerP, c_int32, F32, c_int32, F32, F32_OUT, F32_OUT]),
+    "sd_deform_displaced": (Status, [DeformerP, c_int32, F32, c_int32, c_int32, I32, F32, F32_OUT, F32_OUT]),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
     # the output check (issue 15)
@@ -620,17 +620,20 @@ class Deformer(_Handle):
               frames)
         return out, frames
 
-    def deform_displaced(self, pose, displacements, out, turned):
-        """sd_deform_displaced: the positions into `out` (V,3), and each vertex's displacement
-        (`displacements` (V,3), armature space, where a shape key put it) turned by its local
-        linear map J into `turned` (V,3); all float32 and contiguous. Returns (out, turned)."""
+    def deform_displaced(self, pose, moved, displacements, out, turned):
+        """sd_deform_displaced: the positions into `out` (V,3), and the displacements of the
+        vertices `moved` (M int32, ascending; `displacements` (M,3), armature space, where a
+        shape key put them) turned by their local linear maps J into `turned` (M,3); float32,
+        contiguous. Returns (out, turned)."""
         if pose.dtype != np.float32 or pose.size != 16 * self.bone_count:
             raise ValueError(f"pose must be {16 * self.bone_count} float32 values")
-        n = 3 * self.vertex_count
-        if out.size != n or turned.size != n or displacements.size != n or displacements.dtype != np.float32:
-            raise ValueError(f"displacements, out and turned must hold {n} float32 values")
-        _call("sd_deform_displaced", self.ptr, self.bone_count, np.ascontiguousarray(pose), self.vertex_count,
-              np.ascontiguousarray(displacements), out, turned)
+        m = len(moved)
+        if out.size != 3 * self.vertex_count:
+            raise ValueError(f"out must hold {3 * self.vertex_count} float32 values")
+        if displacements.size != 3 * m or turned.size != 3 * m or displacements.dtype != np.float32:
+            raise ValueError(f"displacements and turned must hold {3 * m} float32 values")
+        _call("sd_deform_displaced", self.ptr, self.bone_count, np.ascontiguousarray(pose), self.vertex_count, m,
+              np.ascontiguousarray(moved, dtype=np.int32), np.ascontiguousarray(displacements), out, turned)
         return out, turned
 
     def volumes(self):

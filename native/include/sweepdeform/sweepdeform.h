@@ -199,16 +199,20 @@ SD_API sd_status sd_deform_frames(sd_deformer* deformer, int32_t bone_count, con
                                   float* out_positions, float* out_frames);
 
 /*
- * sd_deform, and each vertex's displacement turned by its local linear map (the J of
- * sd_deform_frames), without writing J:
- *  displacements  #V*3 armature space, finite: d, where a shape key or an earlier deformation
- *                 put the vertex relative to the bound rest
- *  out_positions  #V*3 the deformed rest positions (as sd_deform)
- *  out_turned     #V*3 J d: the displaced vertex deforms to out_positions + out_turned
- * A caller whose shape keys move few vertices pays for J d, not for 9 floats a vertex.
+ * sd_deform, and the displacements of some vertices turned by their local linear maps (the J
+ * of sd_deform_frames), J assembled for those vertices only:
+ *  moved_count     M >= 0 displaced vertices
+ *  moved_vertices  #M their indices, strictly ascending, in [0, V)
+ *  displacements   #M*3 armature space, finite, each within ±1e12: d, where a shape key or an
+ *                  earlier deformation put the vertex relative to the bound rest
+ *  out_positions   #V*3 the deformed rest positions (as sd_deform)
+ *  out_turned      #M*3 J d: the displaced vertex deforms to out_positions + out_turned
+ * A face's shape keys move a few thousand vertices of a body: they cost those, not 9 floats
+ * for every vertex. moved_vertices, displacements and out_turned may be NULL when M is 0.
  */
 SD_API sd_status sd_deform_displaced(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
-                                     const float* displacements, float* out_positions, float* out_turned);
+                                     int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
+                                     float* out_positions, float* out_turned);
 
 /*
  * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.

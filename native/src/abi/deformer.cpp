@@ -88,13 +88,25 @@ sd_status sd_deform_frames(sd_deformer* d, int32_t bone_count, const float* pose
 }
 
 sd_status sd_deform_displaced(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
-                              const float* displacements, float* out_positions, float* out_turned) {
+                              int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
+                              float* out_positions, float* out_turned) {
     return guarded(__func__, [&] {
-        SD_REQUIRE(d && pose && displacements && out_positions && out_turned,
-                   "deformer, pose, displacements, out_positions or out_turned is NULL");
+        SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
+        SD_REQUIRE(moved_count >= 0, "moved_count is negative");
+        SD_REQUIRE(moved_count == 0 || (moved_vertices && displacements && out_turned),
+                   "moved_vertices, displacements or out_turned is NULL");
         if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
-        require_finite(displacements, 3 * static_cast<size_t>(vertex_count), "displacements");
-        d->deformer->deform_displaced(pose, displacements, out_positions, out_turned);
+        SD_REQUIRE(moved_count <= vertex_count, "moved_count exceeds vertex_count");
+        for (int32_t i = 0; i < moved_count; ++i)
+            SD_REQUIRE(moved_vertices[i] >= 0 && moved_vertices[i] < vertex_count &&
+                           (i == 0 || moved_vertices[i] > moved_vertices[i - 1]),
+                       "moved_vertices must be ascending vertex indices (index " + std::to_string(i) + ")");
+        require_finite(displacements, 3 * static_cast<size_t>(moved_count), "displacements");
+        // (bounded so that J d stays finite for any pose sd_deform accepts)
+        for (size_t i = 0; i < 3 * static_cast<size_t>(moved_count); ++i)
+            SD_REQUIRE(std::abs(displacements[i]) <= 1e12f,
+                       "displacements has a value beyond 1e12 at index " + std::to_string(i));
+        d->deformer->deform_displaced(pose, moved_count, moved_vertices, displacements, out_positions, out_turned);
         return SD_OK;
     });
 }

@@ -339,8 +339,11 @@ void Deformer::deform_frames(const float* pose, float* out, float* frames) {
     deform_with(pose, out, maps);
 }
 
-void Deformer::deform_displaced(const float* pose, const float* displacements, float* out, float* turned) {
+void Deformer::deform_displaced(const float* pose, int32_t count, const int32_t* moved, const float* displacements,
+                                float* out, float* turned) {
     SweepKernel::LocalMaps maps;
+    maps.moved_count = count;
+    maps.moved = moved;
     maps.displacements = displacements;
     maps.turned = turned;
     deform_with(pose, out, maps);

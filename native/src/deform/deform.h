@@ -57,11 +57,12 @@ public:
     /// do not enter J). The rest pose gives the identity.
     void deform_frames(const float* pose, float* out, float* frames);
 
-    /// deform(), and each vertex's displacement d (#V*3, armature space: where a shape key or
-    /// an earlier modifier put it, relative to the bound rest) turned by its J into `turned`
-    /// (#V*3): the displaced vertex deforms to out + turned. The same J as deform_frames,
-    /// without writing nine floats a vertex.
-    void deform_displaced(const float* pose, const float* displacements, float* out, float* turned);
+    /// deform(), and the displacement d of each of `count` distinct vertices `moved` (#M*3 in
+    /// `displacements`, armature space: where a shape key put it, relative to the bound rest)
+    /// turned by the vertex's J into `turned` (#M*3): the displaced vertex deforms to
+    /// out + turned. The same J as deform_frames, assembled for those vertices only.
+    void deform_displaced(const float* pose, int32_t count, const int32_t* moved, const float* displacements,
+                          float* out, float* turned);
 
     const Rig& rig() const { return rig_; }
     const Binding& binding() const { return binding_; }

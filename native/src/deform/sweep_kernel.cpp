@@ -197,6 +197,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     std::vector<int32_t> vertex_of(n);
     for (int v = 0; v < V; ++v)
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) vertex_of[i] = v;
+    slot_vertex_.resize(n);
     for (size_t s = 0; s < n; ++s) {
         const SweepInfluence& f = inf[order[s]];
         slot_of[order[s]] = static_cast<uint32_t>(s);
@@ -208,6 +209,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         cos_[s] = f.cos_theta;
         sin_[s] = f.sin_theta;
         const int vert = vertex_of[order[s]];
+        slot_vertex_[s] = vert;
         vx_[s] = b.rest_positions[3 * static_cast<size_t>(vert)];
         vy_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 1];
         vz_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 2];
@@ -276,8 +278,29 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                       const Binding& b, float* out, const LocalMaps& maps) {
     float* const jacobians = maps.jacobians;
     // J is assembled whenever it is asked for, written or applied to a displacement.
-    const bool with_j = maps.jacobians != nullptr || maps.displacements != nullptr;
+    const bool with_j = maps.jacobians != nullptr || maps.moved_count > 0;
     if (with_j) turns_.resize(9 * u_.size());
+    // With displacements, J only for the displaced vertices (a face's shape keys move a few
+    // thousand vertices of a body): per vertex, and per batch of influences for the turns.
+    // moved_at_ (all -1 between calls) says which displacement a vertex has.
+    if (moved_at_.size() != static_cast<size_t>(b.vertex_count())) moved_at_.assign(b.vertex_count(), -1);
+    for (int32_t i = 0; i < maps.moved_count; ++i) moved_at_[maps.moved[i]] = i;
+    struct Reset {  // back to -1, also if a task throws
+        std::vector<int32_t>& at;
+        const LocalMaps& maps;
+        ~Reset() {
+            for (int32_t i = 0; i < maps.moved_count; ++i) at[maps.moved[i]] = -1;
+        }
+    } reset{moved_at_, maps};
+    const int32_t* const moved_at = moved_at_.data();
+    const auto needs_j = [&](int v) { return jacobians != nullptr || moved_at[v] >= 0; };
+    const auto batch_needs_j = [&](const Batch& bt) {
+        if (jacobians) return true;
+        if (maps.moved_count == 0) return false;
+        for (int32_t s = bt.begin; s < bt.end; ++s)
+            if (moved_at[slot_vertex_[s]] >= 0) return true;
+        return false;
+    };
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
     const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),     z_.data(),  cos_.data(),
                            sin_.data(), rx_.data(), ry_.data(), rz_.data(),    rw_.data(), vx_.data(),
@@ -290,7 +313,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             else
                 evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(), y_.data(),
                                z_.data(), cos_.data(), sin_.data(), p4_.data());
-            if (with_j)
+            if (batch_needs_j(bt))
                 evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), rx_.data(),
                                     ry_.data(), rz_.data(), rw_.data(), turns_.data());
         }
@@ -298,9 +321,9 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const float* rest = b.rest_positions.data();
     const float* p4 = p4_.data();
     const auto store = [&](int v, Float4 p, const float* j) {
-        if (maps.displacements) {
-            const float* d = maps.displacements + 3 * static_cast<size_t>(v);
-            float* t = maps.turned + 3 * static_cast<size_t>(v);
+        if (const int32_t i = moved_at[v]; i >= 0) {  // J d
+            const float* d = maps.displacements + 3 * static_cast<size_t>(i);
+            float* t = maps.turned + 3 * static_cast<size_t>(i);
             for (int row = 0; row < 3; ++row)
                 t[row] = j[3 * row] * d[0] + j[3 * row + 1] * d[1] + j[3 * row + 2] * d[2];
         }
@@ -322,12 +345,13 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const auto plain_block = [&](const int k0, const int k1) {
         for (int k = k0; k != k1; ++k) {
             const int v = plain_vertices_[k];
+            const bool vertex_j = needs_j(v);
             Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
             float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
             for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                 const uint32_t s = rows_[i];
                 p += load4(p4 + 4 * static_cast<size_t>(s));
-                if (with_j) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
+                if (vertex_j) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
             }
             // The bones' matrices blended first, then applied once (as linear blend skinning
             // does): four 4-wide multiply-adds per bone; its 3x3 part is J's.
@@ -344,7 +368,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 }
                 const float* x = rest + 3 * static_cast<size_t>(v);
                 p += c0 * x[0] + c1 * x[1] + c2 * x[2] + c3;
-                if (with_j) {
+                if (vertex_j) {
                     const Float4 cols[3] = {c0, c1, c2};
                     for (int row = 0; row < 3; ++row)
                         for (int c = 0; c < 3; ++c) j[3 * row + c] += cols[c][row];
@@ -376,7 +400,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             const BlendEntry* const point_bones = frame_bones + row.count[2];
             const BlendEntry* const end = point_bones + row.count[3];
             Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
-            float* j = with_j ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
+            float* j = needs_j(row.vertex) ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
             if (j)
                 for (int c = 0; c < 9; ++c) j[c] = 0.0f;
             FrameBlend blend;
@@ -419,7 +443,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         for (int k = k0; k != k1; ++k) {
             const BlendedVertex& row = blended_vertices_[k];
             const int v = row.vertex;
-            float* j = with_j ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
+            float* j = needs_j(row.vertex) ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
             Float4 p;
             if (plane[norm2_plane * count + k] > 1e-12f) {
                 for (int c = 0; c < 3; ++c) p[c] = plane[(point_x + c) * count + k];

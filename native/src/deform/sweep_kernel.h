@@ -46,8 +46,10 @@ public:
     /// that join as points), written out, or applied to a displacement per vertex.
     struct LocalMaps {
         float* jacobians = nullptr;            // 3 blocks of #V*3 (block r: row r of every vertex's J)
-        const float* displacements = nullptr;  // #V*3: d per vertex, and then
-        float* turned = nullptr;               // #V*3 receives J d
+        int32_t moved_count = 0;               // displaced vertices: M (distinct, in [0, V))
+        const int32_t* moved = nullptr;        // #M their indices
+        const float* displacements = nullptr;  // #M*3 their displacements d, and then
+        float* turned = nullptr;               // #M*3 receives J d
     };
 
     /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v] for a vertex of one influence, the
@@ -69,6 +71,8 @@ private:
                                                         // w q, ½ w (p - V) q
     std::vector<float> turns_;                          // with J only: 9 per slot, w R(u) R_rest(u)^-1
     std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
+    std::vector<int32_t> slot_vertex_;                  // the slot's vertex
+    std::vector<int32_t> moved_at_;                     // per vertex: its displacement, or -1
     std::vector<float> row_blends_;                     // per vertex: its frame share
     std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
     std::vector<int32_t> plain_vertices_;               // vertices of one influence, or none blended

@@ -207,29 +207,51 @@ TEST(CApi, InvalidPosesAreRefusedAndLeaveTheOutputAlone) {
         const float turned_z[16] = {0, 1, 0, 0, -1, 0, 0, 0, 0, 0, 1, 0, 1, bone == 1 ? 0.0f : 1.0f, 0, 1};
         std::copy(turned_z, turned_z + 16, &bent[16 * static_cast<size_t>(bone)]);
     }
-    std::vector<float> disp(3 * V), at(3 * V, 42.0f), turned(3 * V, 42.0f);
-    for (int i = 0; i < 3 * V; ++i) disp[i] = 0.01f * static_cast<float>((i * 7) % 5 - 2);
-    disp[4] = kNaN;
-    expect_error(sd_deform_displaced(d, 3, bent.data(), V, disp.data(), at.data(), turned.data()),
-                 SD_ERR_INVALID_ARGUMENT, "NaN displacement");
-    expect_error(sd_deform_displaced(d, 3, bent.data(), V, nullptr, at.data(), turned.data()), SD_ERR_INVALID_ARGUMENT,
-                 "NULL displacements");
+    // Two vertices of three displaced (the others get no J).
+    std::vector<int32_t> which;
+    std::vector<float> disp;
+    for (int v = 0; v < V; ++v)
+        if (v % 3 != 0) {
+            which.push_back(v);
+            for (int c = 0; c < 3; ++c) disp.push_back(0.01f * static_cast<float>((3 * v + c) * 7 % 5 - 2));
+        }
+    const int32_t M = static_cast<int32_t>(which.size());
+    std::vector<float> at(3 * V, 42.0f), turned(3 * static_cast<size_t>(M), 42.0f);
+    const auto displaced = [&](int32_t count, const int32_t* vertices, const float* moves) {
+        return sd_deform_displaced(d, 3, bent.data(), V, count, vertices, moves, at.data(), turned.data());
+    };
+    disp[7] = kNaN;
+    expect_error(displaced(M, which.data(), disp.data()), SD_ERR_INVALID_ARGUMENT, "NaN displacement");
+    disp[7] = 2e12f;
+    expect_error(displaced(M, which.data(), disp.data()), SD_ERR_INVALID_ARGUMENT, "enormous displacement");
+    disp[7] = 0.0f;
+    expect_error(displaced(M, which.data(), nullptr), SD_ERR_INVALID_ARGUMENT, "NULL displacements");
+    expect_error(displaced(-1, which.data(), disp.data()), SD_ERR_INVALID_ARGUMENT, "negative count");
+    std::vector<int32_t> bad = which;
+    std::swap(bad[0], bad[1]);
+    expect_error(displaced(M, bad.data(), disp.data()), SD_ERR_INVALID_ARGUMENT, "vertices not ascending");
+    bad = which;
+    bad.back() = V;
+    expect_error(displaced(M, bad.data(), disp.data()), SD_ERR_INVALID_ARGUMENT, "vertex out of range");
     for (float x : at) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
     for (float x : turned) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
-    disp[4] = 0.0f;
-    ASSERT_EQ(sd_deform_displaced(d, 3, bent.data(), V, disp.data(), at.data(), turned.data()), SD_OK)
-        << sd_last_error();
+    ASSERT_EQ(displaced(M, which.data(), disp.data()), SD_OK) << sd_last_error();
     ASSERT_EQ(sd_deform(d, 3, bent.data(), V, out.data()), SD_OK);
     ASSERT_EQ(sd_deform_frames(d, 3, bent.data(), V, pos.data(), frames.data()), SD_OK);
+    for (int i = 0; i < 3 * V; ++i) ASSERT_NEAR(at[i], out[i], 1e-6f);
     float moved = 0.0f;  // how far J d is from d somewhere: the forearm's turn
-    for (int v = 0; v < V; ++v)
+    for (int32_t k = 0; k < M; ++k)
         for (int r = 0; r < 3; ++r) {
-            ASSERT_NEAR(at[3 * v + r], out[3 * v + r], 1e-6f);
+            const int v = which[k];
             float jd = 0.0f;
-            for (int c = 0; c < 3; ++c) jd += frames[3 * (r * V + v) + c] * disp[3 * v + c];
-            ASSERT_NEAR(turned[3 * v + r], jd, 1e-6f) << "vertex " << v << " row " << r;
-            moved = std::max(moved, std::abs(turned[3 * v + r] - disp[3 * v + r]));
+            for (int c = 0; c < 3; ++c) jd += frames[3 * (r * V + v) + c] * disp[3 * k + c];
+            ASSERT_NEAR(turned[3 * k + r], jd, 1e-6f) << "vertex " << v << " row " << r;
+            moved = std::max(moved, std::abs(turned[3 * k + r] - disp[3 * k + r]));
         }
+    // None displaced: the positions alone.
+    std::fill(at.begin(), at.end(), 42.0f);
+    ASSERT_EQ(displaced(0, nullptr, nullptr), SD_OK) << sd_last_error();
+    for (int i = 0; i < 3 * V; ++i) ASSERT_NEAR(at[i], out[i], 1e-6f);
     EXPECT_GT(moved, 0.02f);
     sd_deformer_destroy(d);
     sd_binding_destroy(b);
