@@ -19,6 +19,7 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -75,6 +76,32 @@ void BM_SweepDeformFrames(benchmark::State& state) {
     }
 }
 
+/// deform() with the top tenth of the body displaced (a face's shape keys): those vertices'
+/// J d (sd_deform_displaced), J assembled for them alone.
+void BM_SweepDeformDisplaced(benchmark::State& state) {
+    Case& c = *g_case;
+    c.deformer->set_volume_preservation(true, 1.0);
+    const std::vector<float>& rest = c.character.positions;
+    std::vector<float> z;
+    for (size_t i = 2; i < rest.size(); i += 3) z.push_back(rest[i]);
+    std::nth_element(z.begin(), z.begin() + static_cast<long>(z.size() * 9 / 10), z.end());
+    const float top = z[z.size() * 9 / 10];
+    std::vector<int32_t> moved;
+    std::vector<float> moves;
+    for (size_t v = 0; v < rest.size() / 3; ++v)
+        if (rest[3 * v + 2] >= top) {
+            moved.push_back(static_cast<int32_t>(v));
+            moves.insert(moves.end(), {0.001f, 0.0f, 0.0f});
+        }
+    std::vector<float> out(rest.size()), turned(moves.size());
+    size_t frame = 0;
+    for (auto _ : state) {
+        c.deformer->deform_displaced(c.poses[frame++ % c.poses.size()].data(), static_cast<int32_t>(moved.size()),
+                                     moved.data(), moves.data(), out.data(), turned.data());
+        benchmark::DoNotOptimize(turned.data());
+    }
+}
+
 void BM_LinearBlendSkinning4(benchmark::State& state) {
     Case& c = *g_case;
     const auto threads = limit_threads(state.range(0));
@@ -114,6 +141,12 @@ BENCHMARK(BM_SweepDeform)
     ->Repetitions(7)
     ->ReportAggregatesOnly();
 BENCHMARK(BM_SweepDeformFrames)
+    ->UseRealTime()
+    ->Unit(benchmark::kMillisecond)
+    ->MinTime(0.5)
+    ->Repetitions(7)
+    ->ReportAggregatesOnly();
+BENCHMARK(BM_SweepDeformDisplaced)
     ->UseRealTime()
     ->Unit(benchmark::kMillisecond)
     ->MinTime(0.5)
@@ -169,7 +202,7 @@ int main(int argc, char** argv) {
     const double sweep = ms("BM_SweepDeform/volume:1/threads:0"), sweep_nv = ms("BM_SweepDeform/volume:0/threads:0");
     const double lbs = ms("BM_LinearBlendSkinning4/threads:0"), fit_bind = ms("BM_FitAndBind");
     const double sweep1 = ms("BM_SweepDeform/volume:1/threads:1"), lbs1 = ms("BM_LinearBlendSkinning4/threads:1");
-    const double frames = ms("BM_SweepDeformFrames");
+    const double frames = ms("BM_SweepDeformFrames"), displaced = ms("BM_SweepDeformDisplaced");
     if (sweep > 0 && lbs > 0) {
         std::printf("\nFIGURES (%d vertices)\n", V);
         std::printf("  sweep deformation, volume control on : %.3f ms/frame\n", sweep);
@@ -184,6 +217,10 @@ int main(int argc, char** argv) {
         if (frames > 0) {
             std::printf("  sweep deformation with J (shape keys): %.3f ms/frame\n", frames);
             std::printf("  ratio sweep with J / LBS             : %.2f\n", frames / lbs);
+        }
+        if (displaced > 0) {
+            std::printf("  sweep, top tenth displaced (J d)     : %.3f ms/frame\n", displaced);
+            std::printf("  ratio sweep with J d / LBS           : %.2f\n", displaced / lbs);
         }
         std::printf("  fit + bind (chains, keys, regions)   : %.1f ms (target <= 2000)\n", fit_bind);
     }
