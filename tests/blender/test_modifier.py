@@ -580,7 +580,7 @@ def test_shape_keys_turned_in_the_core_match_the_node_group():
     two keys at 0.7 and 0.4 (one relative to the other) moving the arms and legs, elbows and
     knees bent, against the same keys once a vertex group of weight 1 on one of them sends the
     character down the general path; then a key value changed with the pose held is followed
-    at once."""
+    at once; then a key moving every vertex."""
     char = helpers.load("fixture")
     obj = char.mesh
     bpy.context.view_layer.objects.active = obj
@@ -627,4 +627,14 @@ def test_shape_keys_turned_in_the_core_match_the_node_group():
     first.vertex_group = everywhere.name
     by_nodes, _ = evaluate()
     err = np.linalg.norm(in_core - by_nodes, axis=1)
+    assert err.max() <= 1e-5 * diag
+    # A key on every vertex (the add-on then works on whole arrays, not on the moved rows).
+    first.vertex_group = ""
+    whole = base + rng.normal(0.0, 0.003, base.shape).astype(np.float32)
+    first.data.foreach_set("co", whole.reshape(-1))
+    in_core, _ = evaluate()
+    first.vertex_group = everywhere.name
+    by_nodes, _ = evaluate()
+    err = np.linalg.norm(in_core - by_nodes, axis=1)
+    print(f"a key on all {len(base)} vertices: core against node group max {err.max():.2e}")
     assert err.max() <= 1e-5 * diag

@@ -180,10 +180,10 @@ class Entry:
         moved = np.flatnonzero(bits[:, 0] | bits[:, 1] | bits[:, 2]).astype(np.int32)
         if moved.size == 0:
             return None
-        rows = d[moved]
+        rows = d if moved.size == len(d) else d[moved]  # (a key on every vertex: no gather)
         last = self._moves_last
         if last is None or not (np.array_equal(moved, last[0]) and np.array_equal(rows, last[1])):
-            self._moves_last = (moved, rows)
+            self._moves_last = (moved, rows.copy() if rows is d else rows)
             self.moves_seen += 1
         return moved, rows
 

@@ -271,7 +271,11 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
     if moves is not None:  # the keys' displacements, turned: offset + (J - I) d in mesh space
-        offsets[moved] += (turned if to_mesh is None else turned @ to_mesh) - d
+        change = (turned if to_mesh is None else turned @ to_mesh) - d
+        if len(moved) == len(offsets):
+            offsets += change  # every vertex: no scatter
+        else:
+            offsets[moved] += change
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets
         arrays.pack_frames(frames, linear, to_mesh)
