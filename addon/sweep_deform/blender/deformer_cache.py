@@ -15,7 +15,7 @@ import threading
 import numpy as np
 
 from ..core import arrays, fit_report, native
-from . import bound_objects, mesh_data, persistence
+from . import bound_objects, mesh_data, persistence, shape_keys
 
 _cache = {}
 
@@ -33,7 +33,7 @@ class Entry:
         self.refused_key = None  # a state refused (unusable pose): not tried again
         self.lock = threading.RLock()  # one evaluation at a time (see frame.evaluate)
         self._packed = None
-        self._mesh_rest = self._moves = self._moves_last = None
+        self._mesh_rest = self._shape_key_buffers = self._moves_last = None
         self.moves_seen = 0  # changes of the shape keys' displacements (moving)
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
         self.matrices_seen = None  # (object, armature) world matrices last found usable
@@ -166,24 +166,21 @@ class Entry:
             self._mesh_rest = mesh_data.vertex_positions(obj.data)
         return self._mesh_rest
 
-    def moves_buffer(self):
-        """(V,3) float32 for the shape keys' displacements (shape_keys.displacements)."""
-        if self._moves is None:
-            self._moves = np.empty((self.deformer.vertex_count, 3), np.float32)
-        return self._moves
+    def shape_key_buffers(self):
+        """The object's buffers for reading and mixing its shape keys (shape_keys.displacements)."""
+        if self._shape_key_buffers is None:
+            self._shape_key_buffers = shape_keys.ShapeKeyBuffers(self.deformer.vertex_count)
+        return self._shape_key_buffers
 
-    def moving(self, d):
-        """(the vertices `d` (V,3) moves, int32 ascending; their rows of d), or None when none
+    def moving(self, moved, rows):
+        """(moved, rows): the vertices the keys move and their displacements, or None when none
         moves; self.moves_seen counts the changes (a key's value or shape), so that the frame's
         key sees them."""
-        bits = d.view(np.uint32)
-        moved = np.flatnonzero(bits[:, 0] | bits[:, 1] | bits[:, 2]).astype(np.int32)
         if moved.size == 0:
             return None
-        rows = d if moved.size == len(d) else d[moved]  # (a key on every vertex: no gather)
         last = self._moves_last
         if last is None or not (np.array_equal(moved, last[0]) and np.array_equal(rows, last[1])):
-            self._moves_last = (moved, rows.copy() if rows is d else rows)
+            self._moves_last = (moved.copy(), rows.copy())
             self.moves_seen += 1
         return moved, rows
 

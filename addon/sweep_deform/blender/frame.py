@@ -215,10 +215,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     with_frames = e.anatomy is None and modifier.needs_frames(obj, md, render)
     moves = None  # (the vertices the keys move, their displacements (M,3) mesh space)
     if with_frames and not modifier.moved_before(obj, md, render):
-        d = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.moves_buffer(), e.scratch)
-        if d is not None:
+        mixed = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.shape_key_buffers())
+        if mixed is not None:
             with_frames = False
-            moves = e.moving(d)  # None when no key moves anything
+            moves = e.moving(*mixed)  # None when no key moves anything
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
            corrections_key, anatomy_key, with_frames, e.moves_seen if moves is not None else 0)
     # The object's own carriers (made here for a copy of a bound object, a library override or

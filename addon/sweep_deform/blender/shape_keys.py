@@ -5,7 +5,8 @@ Sweep Deform carries what reaches it along with each vertex's local linear map J
 ``deformed_rest + J (incoming − rest)``. When only shape keys move the vertices (no modifier
 before Sweep Deform), ``incoming − rest`` is known before Blender evaluates the mesh: Blender
 mixes relative keys as ``reference + Σ value × (key − its relative key)``. The core then turns
-that displacement itself (``sd_deform_displaced``) and the carrier holds plain offsets: no J
+that displacement itself (``sd_mix_shape_keys`` mixes the keys, ``sd_deform_displaced`` turns
+the vertices they move) and the carrier holds plain offsets: no J
 blocks written or sampled by the node group, which made a frame with a shape key about twice
 one without (docs/addon.md, "Time per frame").
 
@@ -19,6 +20,8 @@ import numpy as np
 
 import bpy
 
+from ..core import native
+
 
 def _evaluated(key, depsgraph):
     """The key as this evaluation sees it (a render's animated and driven values)."""
@@ -30,32 +33,29 @@ def _evaluated(key, depsgraph):
         return key
 
 
-def displacements(obj, depsgraph, rest, out, scratch):
-    """(V,3) float32 `out` holding incoming − rest for the shape keys alone (mesh space), or
-    None if the keys are not mixed as this function mixes them (the caller then uses the
-    general path). `rest` is the mesh's own rest positions (V,3); `scratch` a (V,3) float32
-    buffer. With no key active, `out` is all zeros."""
+def displacements(obj, depsgraph, rest, scratch):
+    """(the vertices the shape keys move, int32 ascending; their displacements incoming − rest,
+    (M,3) float32 mesh space), both empty when no key moves anything; or None if the keys are
+    not mixed as the core mixes them (the caller then uses the general path). `rest` is the
+    mesh's own rest positions (V,3); `scratch` a ShapeKeyBuffers."""
     keys = obj.data.shape_keys
     if keys is None or "points" not in bpy.types.ShapeKey.bl_rna.properties:
         return None
     if not keys.use_relative or obj.show_only_shape_key or obj.mode == 'EDIT':
         return None
-    blocks = keys.key_blocks
     reference = keys.reference_key
     evaluated = _evaluated(keys, depsgraph).key_blocks
-    flat = out.reshape(-1)
-    reference.points.foreach_get('co', flat)
-    np.subtract(out, rest, out=out)  # the basis itself may differ from the mesh's positions
-    read = {}  # each block's positions read once
+    blocks = [reference]  # the blocks to read, the reference first
+    where = {reference.name: 0}
+    terms, values = [], []
 
-    def positions(block):
-        if block.name not in read:
-            data = np.empty_like(out)
-            block.points.foreach_get('co', data.reshape(-1))
-            read[block.name] = data
-        return read[block.name]
+    def block_of(block):
+        if block.name not in where:
+            where[block.name] = len(blocks)
+            blocks.append(block)
+        return where[block.name]
 
-    for index, block in enumerate(blocks):
+    for index, block in enumerate(keys.key_blocks):
         if block == reference or block.mute:
             continue
         value = evaluated[index].value
@@ -63,8 +63,25 @@ def displacements(obj, depsgraph, rest, out, scratch):
             continue
         if block.vertex_group:
             return None  # weighted per vertex: the general path
-        relative = block.relative_key
-        np.subtract(positions(block), positions(relative), out=scratch)
-        scratch *= np.float32(value)
-        out += scratch
-    return out
+        terms.append((block_of(block), block_of(block.relative_key)))
+        values.append(value)
+    positions = scratch.blocks(len(blocks))
+    for i, block in enumerate(blocks):
+        block.points.foreach_get('co', positions[i].reshape(-1))
+    count = native.mix_shape_keys(rest, positions, np.array(terms, np.int32).reshape(-1, 2),
+                                  np.array(values, np.float32), scratch.moved, scratch.moves)
+    return scratch.moved[:count], scratch.moves[:count]
+
+
+class ShapeKeyBuffers:
+    """Per bound object: the keys' positions as read (grown as needed) and the mix's output."""
+
+    def __init__(self, vertex_count):
+        self._blocks = np.empty((0, vertex_count, 3), np.float32)
+        self.moved = np.empty(vertex_count, np.int32)
+        self.moves = np.empty((vertex_count, 3), np.float32)
+
+    def blocks(self, count):
+        if len(self._blocks) < count:
+            self._blocks = np.empty((count,) + self._blocks.shape[1:], np.float32)
+        return self._blocks[:count]

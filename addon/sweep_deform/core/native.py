@@ -174,6 +174,8 @@ SIGNATURES = {
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
     "sd_deform_frames": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT, F32_OUT]),
     "sd_deform_displaced": (Status, [DeformerP, c_int32, F32, c_int32, c_int32, I32, F32, F32_OUT, F32_OUT]),
+    "sd_mix_shape_keys": (Status, [c_int32, F32, c_int32, F32, c_int32, I32, F32, P_INT32, I32_OUT,
+                                   F32_OUT]),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
     # the output check (issue 15)
@@ -347,6 +349,24 @@ def library_version():
 
 
 # ---- handles ----------------------------------------------------------------------------
+
+
+def mix_shape_keys(rest, blocks, terms, values, moved, moves):
+    """sd_mix_shape_keys: relative keys mixed as Blender mixes them, as displacements from
+    `rest` (V,3): `blocks` (B,V,3) the keys' positions, block 0 the reference key; `terms`
+    (T,2) int32 each active key's block and its relative key's block; `values` (T,) float32.
+    Writes the vertices that move (ascending) into `moved` (V,) int32 and their displacements
+    into `moves` (V,3) float32; returns how many. All float32/int32 and contiguous."""
+    V = len(rest)
+    if blocks.ndim != 3 or blocks.shape[1:] != (V, 3) or len(blocks) < 1:
+        raise ValueError(f"blocks must be (B, {V}, 3) with B >= 1")
+    if terms.shape != (len(values), 2) or moved.size != V or moves.size != 3 * V:
+        raise ValueError("terms must be (T, 2) for T values; moved and moves must hold V and 3V values")
+    count = c_int32(0)
+    _call("sd_mix_shape_keys", V, np.ascontiguousarray(rest), len(blocks), np.ascontiguousarray(blocks), len(values),
+          np.ascontiguousarray(terms, dtype=np.int32), np.ascontiguousarray(values, dtype=np.float32),
+          ctypes.byref(count), moved, moves)
+    return count.value
 
 
 class _Handle:

@@ -52,7 +52,7 @@ extern "C" {
 
 /* Bumped whenever a signature or a struct layout of this header changes, or functions are
  * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
- * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced). */
+ * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced, sd_mix_shape_keys). */
 #define SD_ABI_VERSION 4
 
 typedef enum sd_status {
@@ -213,6 +213,22 @@ SD_API sd_status sd_deform_frames(sd_deformer* deformer, int32_t bone_count, con
 SD_API sd_status sd_deform_displaced(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
                                      int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
                                      float* out_positions, float* out_turned);
+
+/*
+ * Relative shape keys mixed as Blender mixes them, as displacements for sd_deform_displaced:
+ * d[v] = blocks[0][v] − rest[v] + Σ_t term_values[t] (blocks[key_t][v] − blocks[relative_t][v])
+ *  rest          #V*3 the bound mesh's positions (mesh space)
+ *  blocks        #block_count*V*3 the keys' positions, block 0 the reference (basis) key
+ *  term_blocks   #term_count*2 each active key's block and its relative key's block
+ *  term_values   #term_count the keys' values (finite)
+ *  out_moved_count  M, the vertices where d is not zero
+ *  out_moved     capacity #V: those vertices, ascending
+ *  out_moves     capacity #V*3: their d
+ * All positions must be finite. Single-threaded, one pass over the vertices.
+ */
+SD_API sd_status sd_mix_shape_keys(int32_t vertex_count, const float* rest, int32_t block_count, const float* blocks,
+                                   int32_t term_count, const int32_t* term_blocks, const float* term_values,
+                                   int32_t* out_moved_count, int32_t* out_moved, float* out_moves);
 
 /*
  * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.

@@ -257,6 +257,48 @@ TEST(CApi, InvalidPosesAreRefusedAndLeaveTheOutputAlone) {
     sd_binding_destroy(b);
 }
 
+// Blender's relative keys: reference + Σ value (key − its relative key), as displacements from
+// the rest, for the vertices they move.
+TEST(CApi, ShapeKeysMixAsBlenderMixesThem) {
+    const std::vector<float> rest = {0, 0, 0, 1, 0, 0, 2, 0, 0, 3, 0, 0};
+    std::vector<float> reference = rest, a, b;
+    reference[11] += 0.5f;  // the basis itself moved vertex 3
+    a = reference;
+    a[3] += 0.1f;  // key A moves vertex 1 along x
+    b = a;
+    b[7] += 0.2f;  // key B, relative to A, moves vertex 2 along y
+    std::vector<float> blocks = reference;
+    blocks.insert(blocks.end(), a.begin(), a.end());
+    blocks.insert(blocks.end(), b.begin(), b.end());
+    const int32_t terms[4] = {1, 0, 2, 1};  // A relative to the reference, B relative to A
+    float values[2] = {0.5f, 2.0f};
+    int32_t count = -7, moved[4] = {-7, -7, -7, -7};
+    float moves[12];
+    std::fill(moves, moves + 12, 42.0f);
+    const auto mix = [&](const float* keys, const int32_t* which) {
+        return sd_mix_shape_keys(4, rest.data(), 3, keys, 2, which, values, &count, moved, moves);
+    };
+    const int32_t outside[4] = {1, 0, 3, 1};
+    expect_error(mix(blocks.data(), outside), SD_ERR_INVALID_ARGUMENT, "a block outside");
+    values[1] = kNaN;
+    expect_error(mix(blocks.data(), terms), SD_ERR_INVALID_ARGUMENT, "NaN value");
+    values[1] = 2.0f;
+    std::vector<float> broken = blocks;
+    broken[20] = kNaN;
+    expect_error(mix(broken.data(), terms), SD_ERR_INVALID_ARGUMENT, "NaN position");
+    EXPECT_EQ(count, -7);
+    for (float m : moves) ASSERT_EQ(m, 42.0f) << "output touched by a failed call";
+    ASSERT_EQ(mix(blocks.data(), terms), SD_OK) << sd_last_error();
+    ASSERT_EQ(count, 3);  // vertex 0 stays
+    EXPECT_EQ(std::vector<int32_t>(moved, moved + 3), (std::vector<int32_t>{1, 2, 3}));
+    const float expected[9] = {0.05f, 0, 0, 0, 0.4f, 0, 0, 0, 0.5f};
+    for (int i = 0; i < 9; ++i) EXPECT_NEAR(moves[i], expected[i], 1e-6f) << i;
+    // No key on: the basis alone.
+    ASSERT_EQ(sd_mix_shape_keys(4, rest.data(), 1, blocks.data(), 0, nullptr, nullptr, &count, moved, moves), SD_OK);
+    ASSERT_EQ(count, 1);
+    EXPECT_EQ(moved[0], 3);
+}
+
 TEST(CApi, BlobsRoundTripExactly) {
     AbiArm arm;
     int64_t size = 0;

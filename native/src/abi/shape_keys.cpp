@@ -1,0 +1,46 @@
+// C ABI: relative shape keys mixed into displacements (deform/shape_key_mix.h).
+#include "sweepdeform/sweepdeform.h"
+
+#include "abi/guard.h"
+#include "deform/shape_key_mix.h"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+namespace {
+using sd::abi::fail;
+using sd::abi::guarded;
+using sd::abi::require_finite;
+}  // namespace
+
+extern "C" {
+
+sd_status sd_mix_shape_keys(int32_t vertex_count, const float* rest, int32_t block_count, const float* blocks,
+                            int32_t term_count, const int32_t* term_blocks, const float* term_values,
+                            int32_t* out_moved_count, int32_t* out_moved, float* out_moves) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(rest && blocks && out_moved_count && out_moved && out_moves,
+                   "rest, blocks, out_moved_count, out_moved or out_moves is NULL");
+        SD_REQUIRE(vertex_count >= 0, "vertex_count is negative");
+        SD_REQUIRE(block_count >= 1, "block_count must be at least 1 (the reference key)");
+        SD_REQUIRE(term_count >= 0, "term_count is negative");
+        SD_REQUIRE(term_count == 0 || (term_blocks && term_values), "term_blocks or term_values is NULL");
+        std::vector<sd::ShapeKeyTerm> terms(static_cast<size_t>(term_count));
+        for (int32_t t = 0; t < term_count; ++t) {
+            const int32_t key = term_blocks[2 * t], relative = term_blocks[2 * t + 1];
+            SD_REQUIRE(key >= 0 && key < block_count && relative >= 0 && relative < block_count,
+                       "term " + std::to_string(t) + " names a block outside [0, block_count)");
+            SD_REQUIRE(std::isfinite(term_values[t]), "term " + std::to_string(t) + " has a non-finite value");
+            terms[t] = {key, relative, term_values[t]};
+        }
+        const size_t n = 3 * static_cast<size_t>(vertex_count);
+        require_finite(rest, n, "rest");
+        require_finite(blocks, n * static_cast<size_t>(block_count), "blocks");
+        *out_moved_count =
+            sd::mix_shape_keys(vertex_count, rest, blocks, terms.data(), term_count, out_moved, out_moves);
+        return SD_OK;
+    });
+}
+
+}  // extern "C"
