@@ -1,4 +1,5 @@
-// Deforming with arbitrary poses and volume settings: either an error, or finite positions.
+// Deforming with arbitrary poses and volume settings, some vertices displaced, shape keys mixed:
+// either an error, or finite results.
 #include "fuzz_fixture.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -35,6 +36,23 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
                             turned.data()) == SD_OK) {
         sdfuzz::require_finite(out.data(), out.size());
         sdfuzz::require_finite(turned.data(), turned.size());
+    }
+    // Shape keys mixed from the same bytes: the mesh as reference, two more blocks, two terms.
+    std::vector<float> blocks(3 * out.size());
+    for (size_t i = 0; i < blocks.size(); ++i) {
+        const uint8_t mode = in.take<uint8_t>();
+        blocks[i] = out[i % out.size()] + (mode < 200 ? in.take<int8_t>() / 64.0f : in.take<float>());
+    }
+    const int32_t terms[4] = {in.take<int8_t>() % 4, in.take<int8_t>() % 4, in.take<int8_t>() % 4,
+                              in.take<int8_t>() % 4};
+    const float values[2] = {in.take<float>(), in.take<float>()};
+    int32_t count = -1;
+    std::vector<int32_t> mixed(static_cast<size_t>(V));
+    std::vector<float> mixed_moves(out.size());
+    if (sd_mix_shape_keys(V, out.data(), 3, blocks.data(), 2, terms, values, &count, mixed.data(),
+                          mixed_moves.data()) == SD_OK) {
+        if (count < 0 || count > V) __builtin_trap();
+        sdfuzz::require_finite(mixed_moves.data(), 3 * static_cast<size_t>(count));
     }
     sd_deformer_destroy(d);
     return 0;

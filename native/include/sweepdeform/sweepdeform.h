@@ -220,11 +220,11 @@ SD_API sd_status sd_deform_displaced(sd_deformer* deformer, int32_t bone_count, 
  *  rest          #V*3 the bound mesh's positions (mesh space)
  *  blocks        #block_count*V*3 the keys' positions, block 0 the reference (basis) key
  *  term_blocks   #term_count*2 each active key's block and its relative key's block
- *  term_values   #term_count the keys' values (finite)
+ *  term_values   #term_count the keys' values (finite, within ±1e6)
  *  out_moved_count  M, the vertices where d is not zero
  *  out_moved     capacity #V: those vertices, ascending
  *  out_moves     capacity #V*3: their d
- * All positions must be finite. Single-threaded, one pass over the vertices.
+ * All positions finite and within ±1e12 (every d is then finite). Single-threaded, one pass.
  */
 SD_API sd_status sd_mix_shape_keys(int32_t vertex_count, const float* rest, int32_t block_count, const float* blocks,
                                    int32_t term_count, const int32_t* term_blocks, const float* term_values,

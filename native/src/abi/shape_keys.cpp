@@ -11,7 +11,6 @@
 namespace {
 using sd::abi::fail;
 using sd::abi::guarded;
-using sd::abi::require_finite;
 }  // namespace
 
 extern "C" {
@@ -31,12 +30,14 @@ sd_status sd_mix_shape_keys(int32_t vertex_count, const float* rest, int32_t blo
             const int32_t key = term_blocks[2 * t], relative = term_blocks[2 * t + 1];
             SD_REQUIRE(key >= 0 && key < block_count && relative >= 0 && relative < block_count,
                        "term " + std::to_string(t) + " names a block outside [0, block_count)");
-            SD_REQUIRE(std::isfinite(term_values[t]), "term " + std::to_string(t) + " has a non-finite value");
+            SD_REQUIRE(std::isfinite(term_values[t]) && std::abs(term_values[t]) <= 1e6f,
+                       "term " + std::to_string(t) + " has a value that is not finite or beyond 1e6");
             terms[t] = {key, relative, term_values[t]};
         }
         const size_t n = 3 * static_cast<size_t>(vertex_count);
-        require_finite(rest, n, "rest");
-        require_finite(blocks, n * static_cast<size_t>(block_count), "blocks");
+        // Finite and within ±1e12, so that every displacement is finite.
+        sd::abi::require_within(rest, n, 1e12f, "rest");
+        sd::abi::require_within(blocks, n * static_cast<size_t>(block_count), 1e12f, "blocks");
         *out_moved_count =
             sd::mix_shape_keys(vertex_count, rest, blocks, terms.data(), term_count, out_moved, out_moves);
         return SD_OK;
