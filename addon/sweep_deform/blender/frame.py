@@ -212,9 +212,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # map (not with the anatomical effects, which stay position-based): shape keys alone are
     # turned in the core (their displacement is known here), anything else by the node group
     # from J in the carrier.
-    with_frames = e.anatomy is None and modifier.needs_frames(obj, md, render)
+    before = modifier.moved_before(obj, md, render)
+    with_frames = e.anatomy is None and (before or modifier.has_shape_keys(obj))
     moves = None  # (the vertices the keys move, their displacements (M,3) mesh space)
-    if with_frames and not modifier.moved_before(obj, md, render):
+    if with_frames and not before:
         mixed = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.shape_key_buffers())
         if mixed is not None:
             with_frames = False
@@ -259,8 +260,8 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         elif moves is not None:
             moved, d = moves
             d_armature = d if to_mesh is None else np.matmul(d, np.asarray(linear, np.float32).T)
-            deformed, turned = e.deformer.deform_displaced(pose, moved, np.ascontiguousarray(d_armature),
-                                                           e.deformer.positions, np.empty_like(d))
+            deformed, turned = e.deformer.deform_displaced(pose, moved, d_armature, e.deformer.positions,
+                                                           np.empty_like(d))
         else:
             deformed = e.deformer.deform(pose)
     except native.NativeError as err:

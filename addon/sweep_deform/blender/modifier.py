@@ -407,13 +407,10 @@ def moved_before(obj, md, render=False):
     return any(active(m, render) for m in stack[:stack.index(md)])
 
 
-def needs_frames(obj, md, render=False):
-    """Whether something before Sweep Deform moves the vertices (a shape key, an active
-    modifier), so that the local linear maps are needed to carry it along."""
+def has_shape_keys(obj):
+    """Whether the mesh has shape keys besides the basis (they may move the vertices)."""
     keys = obj.data.shape_keys
-    if keys is not None and len(keys.key_blocks) > 1:
-        return True
-    return moved_before(obj, md, render)
+    return keys is not None and len(keys.key_blocks) > 1
 
 
 def clear_offsets(obj):

@@ -9,7 +9,6 @@
 #include <vector>
 
 namespace {
-using sd::abi::fail;
 using sd::abi::guarded;
 }  // namespace
 

@@ -166,7 +166,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     const auto& inf = b.sweep_influences;
     const size_t n = inf.size();
     const int V = b.vertex_count();
-    row_blends_.assign(V, 0.0f);
+    std::vector<float> row_blends(V, 0.0f);  // per vertex: its frame share (0: not blended)
     std::vector<uint8_t> blended(n, 0);
     for (int v = 0; v < V; ++v) {
         // Blended as frames: a vertex with a sweep influence and two or more influences that
@@ -178,7 +178,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
             if (!point_bone[i]) ++frames, share += b.bone_influences[i].weight;
         const bool blends = frames > 1 && b.sweep_offsets[v + 1] > b.sweep_offsets[v];
-        row_blends_[v] = blends ? share : 0.0f;
+        row_blends[v] = blends ? share : 0.0f;
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) blended[i] = blends;
     }
     // Sorted by (blended as frames, half-span): each batch is one kind and one half-span,
@@ -234,11 +234,11 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     // Two lists of vertices, so neither loop branches on the kind: a blended vertex's
     // influences as one run of entries grouped by how they join (frames first).
     for (int v = 0; v < V; ++v) {
-        if (!(row_blends_[v] > 0.0f)) {
+        if (!(row_blends[v] > 0.0f)) {
             plain_vertices_.push_back(v);
             continue;
         }
-        BlendedVertex row{v, static_cast<uint32_t>(blend_entries_.size()), row_blends_[v], {0, 0, 0, 0}};
+        BlendedVertex row{v, static_cast<uint32_t>(blend_entries_.size()), row_blends[v], {0, 0, 0, 0}};
         for (int kind = 0; kind < 4; ++kind) {
             const bool sweep = kind < 2, point = kind % 2 == 1;
             const uint32_t first = sweep ? b.sweep_offsets[v] : b.bone_offsets[v];

@@ -73,7 +73,6 @@ private:
     std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
     std::vector<int32_t> slot_vertex_;                  // the slot's vertex
     std::vector<int32_t> moved_at_;                     // per vertex: its displacement, or -1
-    std::vector<float> row_blends_;                     // per vertex: its frame share
     std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
     std::vector<int32_t> plain_vertices_;               // vertices of one influence, or none blended
     /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.
