@@ -95,6 +95,16 @@ struct Tree {
         for (int c : lc) n += extremities(c);
         return n;
     }
+    /// Where bone b points, joint to joint: to the head of its one child (a foot to its toe)
+    /// when it has one away from it, else to its tail. glTF stores joints, not bones, and its
+    /// importers point every tail one way (CesiumMan's along the body's side).
+    dvec3 pointing(int b) const {
+        if (children[b].size() == 1) {
+            const dvec3 d = s.heads[children[b][0]] - s.heads[b];
+            if (glm::length(d) > 1e-3 * size) return d;
+        }
+        return s.tails[b] - s.heads[b];
+    }
     /// The point of b's subtree farthest from `from`.
     dvec3 farthest(int b, const dvec3& from) const {
         dvec3 best = s.heads[b];
@@ -340,7 +350,7 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
         split_limb(t, legs[i], &leg_chain[i]);
         if (leg_chain[i].end_bone >= 0) {
             const int f = leg_chain[i].end_bone;
-            feet += s.tails[f] - s.heads[f];
+            feet += t.pointing(f);
             foot_length += t.length[f];
         }
     }

@@ -45,6 +45,20 @@ dvec3 unit_or(const dvec3& v, const dvec3& fallback) {
 
 double angle_between(const dvec3& a, const dvec3& b) { return std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)); }
 
+/// The direction of the chain whose sweep starts at `bone`, joint to joint (its first link's
+/// head to the next joint); the bone's own head to tail when no chain starts there or the
+/// joints coincide.
+dvec3 first_link_direction(const Skeleton& s, const ChainSet& set, int bone) {
+    for (const Chain& c : set.chains) {
+        if (c.bones.size() <= static_cast<size_t>(c.first_swept) || c.bones[c.first_swept] != bone) continue;
+        const size_t next = static_cast<size_t>(c.first_swept) + 1;
+        const dvec3 to =
+            next < c.bones.size() ? s.heads[c.bones[next]] : (c.end_bone >= 0 ? s.heads[c.end_bone] : s.tails[bone]);
+        if (glm::length(to - s.heads[bone]) > 1e-4 * set.size) return to - s.heads[bone];
+    }
+    return s.tails[bone] - s.heads[bone];
+}
+
 std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Chain& ch, const KeyOptions& opt) {
     const std::vector<int> links(ch.bones.begin() + ch.first_swept, ch.bones.end());
     const int m = static_cast<int>(links.size());
@@ -131,8 +145,11 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
         end.bone = ch.end_bone;
         end.joint_parent = links.back();
         if (is_link(ch.end_bone)) {
-            // The torso's end is the neck's start: the same joint, bisected when gentle.
-            const dvec3 nd = unit_or(s.tails[ch.end_bone] - s.heads[ch.end_bone], dir[m - 1]);
+            // The torso's end is the neck's start: the same joint, bisected when gentle. The
+            // neck's direction is joint to joint, as the neck's own keys take it: a glTF rig's
+            // bones all point one way whatever the body does (CesiumMan's neck along the body's
+            // side), and a normal from the bone's tail turned the key's plane sideways.
+            const dvec3 nd = unit_or(first_link_direction(s, set, ch.end_bone), dir[m - 1]);
             end.normal = bisector(dir[m - 1], nd, glm::radians(60.0));
         } else {
             // The wrist, ankle or head key takes the whole twist of the hand, foot or head,

@@ -108,12 +108,26 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
             m.turns_about_pivot = true;
             m.pivot = skeleton.heads[e.bone];
         } else if (after[k] >= 0 && after[k] == K - 1) {
-            // The last link: its share of the end key's twist, none of its swing.
+            // The last link: its share of the end key's twist, none of its swing. The twist is
+            // taken about the link itself and the key turns about it, not about its own center:
+            // a forearm turns about its bones, and a section centered a centimetre off them
+            // would otherwise swing round the bone and ripple the outline.
             const KeyEllipse& j = keys[after[k]];
+            const Link& link = links[k];
             m.to_bone = j.bone;
-            m.twist_share = links[k].fraction_of(e.center) * j.twist_fraction;
-            m.axis = j.normal();
-            if (m.twist_share == 0.0) m.to_bone = e.bone;
+            m.twist_share = link.fraction_of(e.center) * j.twist_fraction;
+            const dvec3 d = link.end - link.start;
+            if (glm::length(d) > 0.0) {
+                m.axis = glm::normalize(d);
+                m.turns_about_pivot = true;
+                m.pivot = link.start + glm::dot(e.center - link.start, m.axis) * m.axis;
+            } else {
+                m.axis = j.normal();
+            }
+            if (m.twist_share == 0.0) {
+                m.to_bone = e.bone;
+                m.turns_about_pivot = false;
+            }
         }
     }
     if (thick) blend_thick_chain(keys, skeleton, blended, median(radii), motions);

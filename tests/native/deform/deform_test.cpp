@@ -109,6 +109,35 @@ TEST(Deform, ElbowKeyBisectsTheJoint) {
     EXPECT_LT(glm::length(n - glm::normalize(dvec3(1, 1, 0))), 1e-9);  // 45° of the 90° bend
 }
 
+TEST(Deform, ForearmKeysOffTheBoneTurnAboutTheBone) {
+    // The forearm's keys centred 2 cm off the bone (as a section's centroid is): twisting the
+    // hand by 180 degrees turns each about the forearm's axis by its share of the twist, so
+    // the key's center goes round the bone with its plane and keeps its distance from it.
+    const test::Arm arm;
+    std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
+    const double offset = 0.02;
+    for (int k : {4, 5}) keys[k].center.y = offset;
+    Rig rig;
+    rig.skeleton = arm.rig.skeleton;
+    rig.add_sweep(keys);
+    SkeletonPose pose;
+    const std::vector<float> m = arm.pose(0.0, glm::radians(180.0));
+    pose.set(rig.skeleton, m.data());
+    std::vector<dvec3> c;
+    std::vector<dquat> q;
+    pose_keys(rig.sweeps[0], pose, c, q);
+    for (int k : {4, 5}) {
+        const double share = (keys[k].center.x - 1.0);  // fraction along the forearm; wrist twist 1
+        const double turn = glm::radians(180.0) * share;
+        EXPECT_NEAR(c[k].x, keys[k].center.x, 1e-12) << "key " << k;
+        EXPECT_NEAR(c[k].y, offset * std::cos(turn), 1e-9) << "key " << k;
+        EXPECT_NEAR(c[k].z, offset * std::sin(turn), 1e-9) << "key " << k;
+        // and the key's plane turns by the same angle about the bone
+        const dvec3 major = glm::mat3_cast(q[k])[0];
+        EXPECT_NEAR(glm::dot(major, dvec3(0, std::cos(turn), std::sin(turn))), 1.0, 1e-9) << "key " << k;
+    }
+}
+
 TEST(Deform, TwistOf180DegreesKeepsEveryCrossSection) {
     const test::Arm arm;
     Deformer d(arm.rig, arm.bind());

@@ -779,6 +779,51 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
     check_character(t, kMakeHuman, "makehuman_t_pose", true);
 }
 
+/// glTF stores joints, not bones: an importer points every bone one way (CesiumMan's all
+/// along the body's side). The fit must read the body from the joints: the feet give the front
+/// and so the sides, and the torso's end key, where the neck starts, follows the neck as its
+/// joints run, not the way the neck bone's tail points.
+TEST(FitCharacterVariants, TheBodyIsReadFromTheJointsWhereverTheTailsPoint) {
+    const std::string path = data_file(kMakeHuman.file);
+    REQUIRE_DATA(path);
+    struct Read {
+        dvec3 trunk_end_normal{0.0}, forward{0.0};
+        std::vector<std::string> chains;
+    };
+    const auto read = [](const io::Character& c) {
+        const Skeleton s = skeleton_of(c);
+        const fit::FitResult r = fit::fit_rig(character_input(c, s));
+        Read out;
+        out.forward = r.chains.frame.forward;
+        for (size_t i = 0; i < r.chains.chains.size(); ++i) {
+            out.chains.push_back(r.chains.chains[i].name);
+            if (r.chains.chains[i].kind == fit::ChainKind::Torso && r.chain_sweep[i] >= 0)
+                out.trunk_end_normal = r.rig.sweeps[r.chain_sweep[i]].keys.back().normal();
+        }
+        return out;
+    };
+    const auto degrees = [](const dvec3& a, const dvec3& b) {
+        return glm::degrees(std::acos(std::clamp(glm::dot(a, b), -1.0, 1.0)));
+    };
+    io::Character c = io::load_gltf_character(path);
+    const Read truth = read(c);
+    const dvec3 side = glm::cross(truth.forward, dvec3(0, 0, 1));  // across the body (Z up)
+    for (size_t b = 0; b < c.bone_names.size(); ++b) {             // every tail a bone length sideways
+        const dvec3 h(c.bone_heads[3 * b], c.bone_heads[3 * b + 1], c.bone_heads[3 * b + 2]);
+        const dvec3 t(c.bone_tails[3 * b], c.bone_tails[3 * b + 1], c.bone_tails[3 * b + 2]);
+        const dvec3 moved = h + glm::length(t - h) * side;
+        for (int i = 0; i < 3; ++i) c.bone_tails[3 * b + i] = static_cast<float>(moved[i]);
+    }
+    const Read pointed = read(c);
+    std::printf(
+        "  tails sideways: torso end key normal %.2f deg, front %.2f deg from the fit with the "
+        "bones' own tails\n",
+        degrees(truth.trunk_end_normal, pointed.trunk_end_normal), degrees(truth.forward, pointed.forward));
+    EXPECT_LT(degrees(truth.trunk_end_normal, pointed.trunk_end_normal), 1.0);
+    EXPECT_LT(degrees(truth.forward, pointed.forward), 5.0);
+    EXPECT_EQ(pointed.chains, truth.chains);  // arm_l is still the left arm
+}
+
 INSTANTIATE_TEST_SUITE_P(Humans, FitCharacter, ::testing::Values(kMakeHuman, make_human_subdiv(), kCesiumMan),
                          [](const ::testing::TestParamInfo<CharacterCase>& info) {
                              std::string n = info.param.file;
