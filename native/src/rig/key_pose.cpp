@@ -33,19 +33,25 @@ void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>&
         const KeyEllipse& e = sweep.keys[k];
         const KeyMotion& m = sweep.motions[k];
         if (!m.blend.empty()) {
-            // Linear blend of the bones' transforms for the center, of their rotations
-            // (on one hemisphere) for the orientation.
-            // (The center as rest + the blended moves, so the rest pose gives it back exactly.)
-            dvec3 c = e.center;
-            dquat q(0, 0, 0, 0);
+            // The bones' motions blended as dual quaternions about the key's center: each
+            // bone moves it by deform * c - c and turns it by its rotation. A linear blend of
+            // the moves cut the chord between bones turned by different angles, so a bent
+            // trunk's sections fell back towards the spine and pushed the lower back out
+            // (MakeHuman's skin 1.28x its rest distance from the spine at spine_bend_45).
+            // (The center as rest + the blended move, so the rest pose gives it back exactly.)
+            dquat real(0, 0, 0, 0), dual(0, 0, 0, 0);
             const dquat& first = pose.rotation[m.blend.front().first];
             for (const auto& [bone, w] : m.blend) {
-                c += w * (dvec3(pose.deform[bone] * dvec4(e.center, 1.0)) - e.center);
                 const dquat& r = pose.rotation[bone];
-                q += (glm::dot(r, first) < 0.0 ? -w : w) * r;
+                const double sw = glm::dot(r, first) < 0.0 ? -w : w;
+                const dvec3 t = dvec3(pose.deform[bone] * dvec4(e.center, 1.0)) - e.center;
+                real += sw * r;
+                dual += (0.5 * sw) * (dquat(0.0, t.x, t.y, t.z) * r);
             }
-            centers[k] = c;
-            rotations[k] = glm::normalize(glm::normalize(q) * e.orientation);
+            const double n = glm::length(real);
+            const dquat moved = (2.0 / (n * n)) * (dual * glm::conjugate(real));
+            centers[k] = e.center + dvec3(moved.x, moved.y, moved.z);
+            rotations[k] = glm::normalize((real / n) * e.orientation);
             continue;
         }
         if (m.from_bone == m.to_bone) {

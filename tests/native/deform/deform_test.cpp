@@ -138,6 +138,36 @@ TEST(Deform, ForearmKeysOffTheBoneTurnAboutTheBone) {
     }
 }
 
+TEST(Deform, ThickChainKeysTurnOnTheArcNotTheChord) {
+    // A thick chain (a trunk: half-axes past half the links' length) whose keys sit 0.3 in
+    // front of its bones: each key follows a blend of the bones around it. Bending at x = 1,
+    // every bone turns about that joint (the upper one by 0), so each blended key must keep
+    // its distance from it; a linear blend of the bones' moves cuts the chord and pulls the
+    // keys towards the joint (towards the spine, pushing the back out).
+    const test::Arm arm(0.6, 0.5);
+    std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
+    for (KeyEllipse& e : keys) e.center.y += 0.3;
+    Rig rig;
+    rig.skeleton = arm.rig.skeleton;
+    rig.add_sweep(keys);
+    const Sweep& s = rig.sweeps[0];
+    SkeletonPose pose;
+    const std::vector<float> m = arm.pose(glm::radians(90.0));
+    pose.set(rig.skeleton, m.data());
+    std::vector<dvec3> c;
+    std::vector<dquat> q;
+    pose_keys(s, pose, c, q);
+    const dvec3 joint(1, 0, 0);
+    int blended_across = 0;
+    for (int k = 0; k < s.key_count(); ++k) {
+        const auto& blend = s.motions[k].blend;
+        if (blend.size() < 2) continue;
+        ++blended_across;
+        EXPECT_NEAR(glm::length(c[k] - joint), glm::length(keys[k].center - joint), 1e-9) << "key " << k;
+    }
+    EXPECT_GT(blended_across, 0) << "the chain must be thick, its keys blended";
+}
+
 TEST(Deform, TwistOf180DegreesKeepsEveryCrossSection) {
     const test::Arm arm;
     Deformer d(arm.rig, arm.bind());
