@@ -164,38 +164,74 @@ double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
     return 0.5 + bend * (ca * ca / across - 0.5);
 }
 
+/// The unit direction in key k's plane towards which the sweep bends there (the inside of
+/// the bend), or zero where it only twists.
+dvec3 bend_inside(const Sweep& s, const SweepGeometry& posed, int k) {
+    const auto& q = posed.key_rotations();
+    const auto& r = s.rest_geometry.key_rotations();
+    const int k0 = std::max(0, k - 1), k1 = std::min(s.key_count() - 1, k + 1);
+    dquat turn = (q[k1] * glm::conjugate(r[k1])) * glm::conjugate(q[k0] * glm::conjugate(r[k0]));
+    if (turn.w < 0.0) turn = -turn;
+    const dmat3 frame = glm::mat3_cast(glm::normalize(q[k]));
+    dvec3 d = glm::cross(dvec3(turn.x, turn.y, turn.z), frame[2]);  // a turn about A takes N towards A x N
+    d -= glm::dot(d, frame[2]) * frame[2];
+    const double len = glm::length(d);
+    return len > 1e-9 ? d / len : dvec3(0.0);
+}
+
 }  // namespace
 
 void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
-                          std::vector<double>& b) {
+                          std::vector<double>& b, std::vector<dvec3>& shifts) {
     // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
     // shorter than at rest where it bends; each key's cross-section grows by what its two
     // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
-    // (which made a ledge across a bent torso), and sideways (bend_share_a). Limbs keep the
-    // paper's controller alone: on them this restoration halved the elbow's r_max but spread
-    // an edit's volume change along the whole arm (tests/blender/test_key_edit.py).
+    // (which made a ledge across a bent torso). Limbs keep the paper's controller alone: on
+    // them this restoration halved the elbow's r_max but spread an edit's volume change along
+    // the whole arm (tests/blender/test_key_edit.py).
     const int K = s.key_count();
+    shifts.assign(K, dvec3(0.0));
     std::vector<double> ratio(K - 1);
     for (int span = 0; span < K - 1; ++span) {
         const double rest = span_thickness(s.rest_geometry, span);
         const double pose = span_thickness(posed, span);
         ratio[span] = rest > 0.0 && pose > 0.0 ? std::clamp(rest / pose, 0.5, 2.0) : 1.0;
     }
+    std::vector<double> lost(K);
     for (int k = 0; k < K; ++k) {
         double r = 0.0;
         int n = 0;
         if (k > 0) r += ratio[k - 1], ++n;
         if (k < K - 1) r += ratio[k], ++n;
+        lost[k] = r / n;
+    }
+    // Smoothed over two keys each side (binomial weights): keys two centimetres apart, each
+    // grown by its own spans alone, raised ripples across the flanks of a bent trunk.
+    constexpr double kSmooth[5] = {1.0, 4.0, 6.0, 4.0, 1.0};
+    // The share of the growth given to the inside of the bend, the outside held in place; the
+    // rest goes along the bend's axis, in place. Grown about its centre, which lies in front
+    // of the spine, a trunk bent forward pushed its lower back out from the spine (MakeHuman:
+    // 1.54x its rest distance, Preserve Volume 1.07); grown along the bend's axis alone its
+    // flanks rose in a band where it bends; all inside, the belly folded into a notch.
+    constexpr double kInside = 0.35;
+    for (int k = 0; k < K; ++k) {
+        double r = 0.0, w = 0.0;
+        for (int i = -2; i <= 2; ++i)
+            if (k + i >= 0 && k + i < K) r += kSmooth[i + 2] * lost[k + i], w += kSmooth[i + 2];
+        r /= w;
         // Within rounding of the rest length (the rest pose) nothing changes, bit for bit.
-        if (std::abs(r / n - 1.0) < 1e-9) continue;
-        // The section's area grows by `area`, along the bend's axis: grown about its centre,
-        // which lies in front of the spine, the trunk bent forward 45 degrees pushed the lower
-        // back 1 cm further out from the spine (MakeHuman: 1.54x its rest distance, Preserve
-        // Volume 1.07; now 1.34).
-        const double area = 1.0 + strength * (r / n - 1.0);
-        const double share = bend_share_a(s, posed, k);
-        a[k] *= std::pow(area, share);
-        b[k] *= std::pow(area, 1.0 - share);
+        if (std::abs(r - 1.0) < 1e-9) continue;
+        const double area = 1.0 + strength * (r - 1.0);
+        const dvec3 inside = bend_inside(s, posed, k);
+        const dmat3 frame = glm::mat3_cast(glm::normalize(posed.key_rotations()[k]));
+        const double ia = glm::dot(inside, frame[0]), ib = glm::dot(inside, frame[1]);
+        const double inside_a = ia * ia + ib * ib > 1e-12 ? ia * ia / (ia * ia + ib * ib) : 0.5;
+        const double axis_a = bend_share_a(s, posed, k);
+        const double grow_a = a[k] * (std::pow(area, kInside * inside_a) - 1.0);
+        const double grow_b = b[k] * (std::pow(area, kInside * (1.0 - inside_a)) - 1.0);
+        shifts[k] = grow_a * ia * frame[0] + grow_b * ib * frame[1];
+        a[k] *= std::pow(area, kInside * inside_a + (1.0 - kInside) * axis_a);
+        b[k] *= std::pow(area, kInside * (1.0 - inside_a) + (1.0 - kInside) * (1.0 - axis_a));
     }
 }
 
@@ -257,13 +293,13 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         // half-axes are where the volume controller starts from.
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
-        const SweepGeometry g(centers, rotations);
+        SweepGeometry g(centers, rotations);
         key_rotations_[si] = g.key_rotations();
 
         // Volume control (Sect. 4.4) on the key half-axes, as far as it can be trusted in
         // this pose (control_trust: none on a crumpled sweep).
-        const std::vector<double> density = volume_density(s.quadrature, g);
-        const VolumeForm form(s.quadrature, density);
+        std::vector<double> density = volume_density(s.quadrature, g);
+        VolumeForm form(s.quadrature, density);
         const double strength = volume_enabled_ && volume_strength_ > 0.0
                                     ? volume_strength_ * control_trust(s, s.quadrature, density, form)
                                     : 0.0;
@@ -276,7 +312,14 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
                 edited = before - form.volume(s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
             const double target = before + strength * (s.corrected_rest_volume + edited - volume_offsets_[si] - before);
             // First where it was lost, key by key; the controller corrects what is left.
-            if (s.bends_smoothly) restore_local_volume(s, g, strength, a, b);
+            if (s.bends_smoothly) {
+                std::vector<dvec3> shifts;
+                restore_local_volume(s, g, strength, a, b, shifts);
+                for (int k = 0; k < s.key_count(); ++k) centers[k] += shifts[k];
+                g = SweepGeometry(centers, rotations);
+                density = volume_density(s.quadrature, g);
+                form = VolumeForm(s.quadrature, density);
+            }
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
             volume_before[si] = before;
             volume_after[si] = r.after;

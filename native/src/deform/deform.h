@@ -14,12 +14,14 @@
 
 namespace sd {
 
-/// Thick chains (Sweep::bends_smoothly): scales each key's half-axes by the square root of
-/// how much shorter the posed sweep is than the rest sweep around the key (along its
-/// normals, the mean over its two spans), blended by `strength`. The volume controller then
-/// corrects what is left.
+/// Thick chains (Sweep::bends_smoothly): grows each key's cross-section by how much shorter
+/// the posed sweep is than the rest sweep around the key (along its normals, the mean over its
+/// two spans, smoothed over two keys each side), blended by `strength`: a share towards the
+/// inside of the bend, the key moved by shifts[k] so that its outside stays in place, the rest
+/// along the bend's axis. The volume controller then corrects what is left.
+/// @param shifts  #K output, armature space
 void restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength, std::vector<double>& a,
-                          std::vector<double>& b);
+                          std::vector<double>& b, std::vector<dvec3>& shifts);
 
 /// Thread safety: every member that reads or writes the per-frame state (deform, the
 /// setters) holds the deformer's lock, so two threads may call them on the same deformer at

@@ -71,10 +71,12 @@ TEST_P(BendVolume, ControllerKeepsTheSweepVolume) {
 
 INSTANTIATE_TEST_SUITE_P(Elbow, BendVolume, ::testing::Values(90.0, 150.0));
 
-TEST(Deform, LocalRestorationGrowsSectionsAlongTheBendAxis) {
+TEST(Deform, LocalRestorationGrowsSectionsInsideTheBendAndAlongItsAxis) {
     // restore_local_volume (the trunk's, Sect. 4.4 departure): the elbow bent 90 degrees about
-    // z; each key's area grows by what its spans lost, all of it on the half-axis nearest z, so
-    // the skin across the bend (along y after the bend) keeps its distance from the bone.
+    // z, the arm along x turning towards y. The elbow key's area grows by what its spans lost;
+    // 35 % of that growth (in the exponent) goes towards the inside of the bend (+y, the key's
+    // a axis) with the key moved so that its outside, -y, stays where it was, and the rest along
+    // the bend's axis (z, the b axis) in place.
     const test::Arm arm;
     const Sweep& s = arm.rig.sweeps[0];
     SkeletonPose pose;
@@ -85,14 +87,23 @@ TEST(Deform, LocalRestorationGrowsSectionsAlongTheBendAxis) {
     pose_keys(s, pose, centers, rotations);
     const SweepGeometry posed(centers, rotations);
     std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
-    restore_local_volume(s, posed, 1.0, a, b);
+    std::vector<dvec3> shifts;
+    restore_local_volume(s, posed, 1.0, a, b, shifts);
     const int elbow = 3;
     const double ra = a[elbow] / s.rest_half_axes.a[elbow], rb = b[elbow] / s.rest_half_axes.b[elbow];
-    ASSERT_GT(ra * rb, 1.001) << "the bend must shorten the elbow's spans";
+    const double area = ra * rb;
+    ASSERT_GT(area, 1.001) << "the bend must shorten the elbow's spans";
     const dmat3 frame = glm::mat3_cast(glm::normalize(rotations[elbow]));
-    const bool a_along_z = std::abs(frame[0].z) > std::abs(frame[1].z);
-    EXPECT_NEAR(a_along_z ? rb : ra, 1.0, 1e-3) << "the axis across the bend keeps its length";
-    EXPECT_GT(a_along_z ? ra : rb, 1.001);
+    const dvec3 inside = glm::normalize(dvec3(-1, 1, 0));  // in the bisecting key plane, towards +y: a
+    ASSERT_NEAR(std::abs(glm::dot(frame[0], inside)), 1.0, 1e-9);
+    EXPECT_NEAR(std::log(ra), 0.35 * std::log(area), 1e-9) << "a share inside";
+    EXPECT_NEAR(std::log(rb), 0.65 * std::log(area), 1e-9) << "the rest along the bend's axis";
+    const double side = glm::dot(frame[0], inside) > 0.0 ? 1.0 : -1.0;  // a's sign towards the inside
+    const dvec3 outside_rest = centers[elbow] - side * s.rest_half_axes.a[elbow] * frame[0];
+    const dvec3 outside_posed = centers[elbow] + shifts[elbow] - side * a[elbow] * frame[0];
+    EXPECT_LT(glm::length(outside_posed - outside_rest), 1e-12) << "the outside of the bend stays";
+    EXPECT_GT(glm::dot(shifts[elbow], inside), 0.0);
+    EXPECT_NEAR(glm::dot(shifts[elbow], frame[2]), 0.0, 1e-12) << "the key moves in its own plane";
 }
 
 TEST(Deform, ElbowKeyBisectsTheJoint) {
