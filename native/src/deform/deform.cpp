@@ -235,6 +235,26 @@ void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
     }
 }
 
+void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const std::vector<double>& a_before,
+                              const std::vector<double>& b_before, const std::vector<double>& a,
+                              const std::vector<double>& b, std::vector<dvec3>& centers) {
+    // The controller grows a limb's joint keys and their neighbours about their centres, so
+    // half of a key's growth across went into the fold inside the bend, where the skin already
+    // meets itself. Moved outwards by half its growth there, a key's inside edge moves half as
+    // far into the fold (a quarter of its growth across; the outside takes three quarters):
+    // MakeHuman's elbow at 150 degrees 68 -> 65 intersecting pairs (13.4K, Preserve Volume 65),
+    // 142 -> 133 (53.5K, 136), region volume -0.97 -> +0.02 %; its skin-to-bone ratio on the
+    // outside 1.14 -> 1.20 (Preserve Volume 1.21). Moved by all of it, the outside rose past
+    // Preserve Volume's.
+    for (int k = 0; k < s.key_count(); ++k) {
+        if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
+        const dvec3 inside = bend_inside(s, posed, k);
+        const dmat3 frame = glm::mat3_cast(glm::normalize(posed.key_rotations()[k]));
+        const double ia = glm::dot(inside, frame[0]), ib = glm::dot(inside, frame[1]);
+        centers[k] -= 0.5 * ((a[k] - a_before[k]) * ia * frame[0] + (b[k] - b_before[k]) * ib * frame[1]);
+    }
+}
+
 Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(std::move(binding)) {
     binding_.check_structure();
     binding_.check_against(rig_);
@@ -320,7 +340,12 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
                 density = volume_density(s.quadrature, g);
                 form = VolumeForm(s.quadrature, density);
             }
+            const std::vector<double> a_before = a, b_before = b;
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);
+            if (!s.bends_smoothly && (a != a_before || b != b_before)) {
+                hold_growth_off_the_fold(s, g, a_before, b_before, a, b, centers);
+                g = SweepGeometry(centers, rotations);
+            }
             volume_before[si] = before;
             volume_after[si] = r.after;
             volume_iterations[si] = r.iterations;

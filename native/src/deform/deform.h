@@ -23,6 +23,13 @@ namespace sd {
 void restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b, std::vector<dvec3>& shifts);
 
+/// Limbs: after the volume controller grew keys from a_before, b_before to a, b, moves each
+/// grown key away from the inside of the bend by half its growth along that direction (the
+/// fold inside the bend gets a quarter of it).
+void hold_growth_off_the_fold(const Sweep& sweep, const SweepGeometry& posed, const std::vector<double>& a_before,
+                              const std::vector<double>& b_before, const std::vector<double>& a,
+                              const std::vector<double>& b, std::vector<dvec3>& centers);
+
 /// Thread safety: every member that reads or writes the per-frame state (deform, the
 /// setters) holds the deformer's lock, so two threads may call them on the same deformer at
 /// once (a render and the viewport): the calls run one after the other, each with the

@@ -106,6 +106,44 @@ TEST(Deform, LocalRestorationGrowsSectionsInsideTheBendAndAlongItsAxis) {
     EXPECT_NEAR(glm::dot(shifts[elbow], frame[2]), 0.0, 1e-12) << "the key moves in its own plane";
 }
 
+TEST(Deform, LimbKeysGrownByTheControllerStayOutOfTheFold) {
+    // hold_growth_off_the_fold: the elbow bent 120 degrees about z (the inside of the bend
+    // towards +y), its key grown by 10 % on both half-axes. The key moves away from the inside
+    // by half its growth there, so its inside edge moves half as far into the fold and its
+    // outside edge one and a half times as far; keys that did not grow stay.
+    const test::Arm arm;
+    const Sweep& s = arm.rig.sweeps[0];
+    SkeletonPose pose;
+    const std::vector<float> m = arm.pose(glm::radians(120.0));
+    pose.set(arm.rig.skeleton, m.data());
+    std::vector<dvec3> centers;
+    std::vector<dquat> rotations;
+    pose_keys(s, pose, centers, rotations);
+    const SweepGeometry posed(centers, rotations);
+    const std::vector<double> a0 = s.rest_half_axes.a, b0 = s.rest_half_axes.b;
+    std::vector<double> a = a0, b = b0;
+    const int elbow = 3;
+    a[elbow] *= 1.1;
+    b[elbow] *= 1.1;
+    std::vector<dvec3> moved = centers;
+    hold_growth_off_the_fold(s, posed, a0, b0, a, b, moved);
+    const dmat3 frame = glm::mat3_cast(glm::normalize(rotations[elbow]));
+    // the bisecting key's a axis lies in the bend's plane, pointing into or out of the fold
+    const dvec3 inside = glm::normalize(glm::cross(dvec3(0, 0, 1), frame[2]));
+    ASSERT_NEAR(std::abs(glm::dot(frame[0], inside)), 1.0, 1e-9);
+    const double sign = glm::dot(frame[0], inside) > 0.0 ? 1.0 : -1.0;
+    const double grown = a[elbow] - a0[elbow];
+    const dvec3 edge_in0 = centers[elbow] + sign * a0[elbow] * frame[0];
+    const dvec3 edge_in = moved[elbow] + sign * a[elbow] * frame[0];
+    const dvec3 edge_out0 = centers[elbow] - sign * a0[elbow] * frame[0];
+    const dvec3 edge_out = moved[elbow] - sign * a[elbow] * frame[0];
+    EXPECT_NEAR(glm::dot(edge_in - edge_in0, inside), 0.5 * grown, 1e-12);
+    EXPECT_NEAR(glm::dot(edge_out0 - edge_out, inside), 1.5 * grown, 1e-12);
+    EXPECT_LT(glm::length(glm::cross(moved[elbow] - centers[elbow], inside)), 1e-12) << "only across the fold";
+    for (int k = 0; k < s.key_count(); ++k)
+        if (k != elbow) EXPECT_EQ(moved[k], centers[k]) << "key " << k;
+}
+
 TEST(Deform, ElbowKeyBisectsTheJoint) {
     const test::Arm arm;
     const Sweep& s = arm.rig.sweeps[0];
