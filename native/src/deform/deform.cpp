@@ -164,19 +164,35 @@ double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
     return 0.5 + bend * (ca * ca / across - 0.5);
 }
 
-/// The unit direction in key k's plane towards which the sweep bends there (the inside of
-/// the bend), or zero where it only twists.
-dvec3 bend_inside(const Sweep& s, const SweepGeometry& posed, int k) {
+/// Where the inside of the bend lies in key k's plane (the direction the sweep turns towards
+/// there): its components along the key's half-axes, zero where the sweep only twists.
+struct InsideOfBend {
+    dvec3 a_axis{0.0}, b_axis{0.0};
+    double along_a = 0.0, along_b = 0.0;
+    /// The key's move that keeps its outside edge in place as it grows by (grow_a, grow_b).
+    dvec3 holding_outside(double grow_a, double grow_b) const {
+        return grow_a * along_a * a_axis + grow_b * along_b * b_axis;
+    }
+};
+
+InsideOfBend inside_of_bend(const Sweep& s, const SweepGeometry& posed, int k) {
     const auto& q = posed.key_rotations();
     const auto& r = s.rest_geometry.key_rotations();
     const int k0 = std::max(0, k - 1), k1 = std::min(s.key_count() - 1, k + 1);
     dquat turn = (q[k1] * glm::conjugate(r[k1])) * glm::conjugate(q[k0] * glm::conjugate(r[k0]));
     if (turn.w < 0.0) turn = -turn;
     const dmat3 frame = glm::mat3_cast(glm::normalize(q[k]));
-    dvec3 d = glm::cross(dvec3(turn.x, turn.y, turn.z), frame[2]);  // a turn about A takes N towards A x N
-    d -= glm::dot(d, frame[2]) * frame[2];
-    const double len = glm::length(d);
-    return len > 1e-9 ? d / len : dvec3(0.0);
+    InsideOfBend in;
+    in.a_axis = frame[0];
+    in.b_axis = frame[1];
+    // a turn about A takes the normal N towards A x N
+    const dvec3 d = glm::cross(dvec3(turn.x, turn.y, turn.z), frame[2]);
+    const double len = std::hypot(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
+    if (len > 1e-9) {
+        in.along_a = glm::dot(d, frame[0]) / len;
+        in.along_b = glm::dot(d, frame[1]) / len;
+    }
+    return in;
 }
 
 }  // namespace
@@ -222,14 +238,12 @@ void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
         // Within rounding of the rest length (the rest pose) nothing changes, bit for bit.
         if (std::abs(r - 1.0) < 1e-9) continue;
         const double area = 1.0 + strength * (r - 1.0);
-        const dvec3 inside = bend_inside(s, posed, k);
-        const dmat3 frame = glm::mat3_cast(glm::normalize(posed.key_rotations()[k]));
-        const double ia = glm::dot(inside, frame[0]), ib = glm::dot(inside, frame[1]);
-        const double inside_a = ia * ia + ib * ib > 1e-12 ? ia * ia / (ia * ia + ib * ib) : 0.5;
+        const InsideOfBend in = inside_of_bend(s, posed, k);
+        const double ia2 = in.along_a * in.along_a, ib2 = in.along_b * in.along_b;
+        const double inside_a = ia2 + ib2 > 1e-12 ? ia2 / (ia2 + ib2) : 0.5;
         const double axis_a = bend_share_a(s, posed, k);
-        const double grow_a = a[k] * (std::pow(area, kInside * inside_a) - 1.0);
-        const double grow_b = b[k] * (std::pow(area, kInside * (1.0 - inside_a)) - 1.0);
-        shifts[k] = grow_a * ia * frame[0] + grow_b * ib * frame[1];
+        shifts[k] = in.holding_outside(a[k] * (std::pow(area, kInside * inside_a) - 1.0),
+                                       b[k] * (std::pow(area, kInside * (1.0 - inside_a)) - 1.0));
         a[k] *= std::pow(area, kInside * inside_a + (1.0 - kInside) * axis_a);
         b[k] *= std::pow(area, kInside * (1.0 - inside_a) + (1.0 - kInside) * (1.0 - axis_a));
     }
@@ -248,10 +262,7 @@ void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const 
     // Preserve Volume's.
     for (int k = 0; k < s.key_count(); ++k) {
         if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
-        const dvec3 inside = bend_inside(s, posed, k);
-        const dmat3 frame = glm::mat3_cast(glm::normalize(posed.key_rotations()[k]));
-        const double ia = glm::dot(inside, frame[0]), ib = glm::dot(inside, frame[1]);
-        centers[k] -= 0.5 * ((a[k] - a_before[k]) * ia * frame[0] + (b[k] - b_before[k]) * ib * frame[1]);
+        centers[k] -= 0.5 * inside_of_bend(s, posed, k).holding_outside(a[k] - a_before[k], b[k] - b_before[k]);
     }
 }
 
