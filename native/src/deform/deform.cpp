@@ -259,10 +259,13 @@ void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const 
     // MakeHuman's elbow at 150 degrees 68 -> 65 intersecting pairs (13.4K, Preserve Volume 65),
     // 142 -> 133 (53.5K, 136), region volume -0.97 -> +0.02 %; its skin-to-bone ratio on the
     // outside 1.14 -> 1.20 (Preserve Volume 1.21). Moved by all of it, the outside rose past
-    // Preserve Volume's.
+    // Preserve Volume's. A key the controller shrinks (the anatomical effects' volume taken out
+    // of its target) shrinks about its centre: held too, CesiumMan's elbow with the effects
+    // lost 56 % of its region's volume at 120 degrees instead of 19 %.
     for (int k = 0; k < s.key_count(); ++k) {
         if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
-        centers[k] -= 0.5 * inside_of_bend(s, posed, k).holding_outside(a[k] - a_before[k], b[k] - b_before[k]);
+        centers[k] -= 0.5 * inside_of_bend(s, posed, k)
+                                .holding_outside(std::max(0.0, a[k] - a_before[k]), std::max(0.0, b[k] - b_before[k]));
     }
 }
 

@@ -25,7 +25,7 @@ void restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double
 
 /// Limbs: after the volume controller grew keys from a_before, b_before to a, b, moves each
 /// grown key away from the inside of the bend by half its growth along that direction (the
-/// fold inside the bend gets a quarter of it).
+/// fold inside the bend gets a quarter of it). Shrunk half-axes move nothing.
 void hold_growth_off_the_fold(const Sweep& sweep, const SweepGeometry& posed, const std::vector<double>& a_before,
                               const std::vector<double>& b_before, const std::vector<double>& a,
                               const std::vector<double>& b, std::vector<dvec3>& centers);

@@ -110,7 +110,7 @@ TEST(Deform, LimbKeysGrownByTheControllerStayOutOfTheFold) {
     // hold_growth_off_the_fold: the elbow bent 120 degrees about z (the inside of the bend
     // towards +y), its key grown by 10 % on both half-axes. The key moves away from the inside
     // by half its growth there, so its inside edge moves half as far into the fold and its
-    // outside edge one and a half times as far; keys that did not grow stay.
+    // outside edge one and a half times as far; keys that did not grow, or shrank, stay.
     const test::Arm arm;
     const Sweep& s = arm.rig.sweeps[0];
     SkeletonPose pose;
@@ -125,6 +125,7 @@ TEST(Deform, LimbKeysGrownByTheControllerStayOutOfTheFold) {
     const int elbow = 3;
     a[elbow] *= 1.1;
     b[elbow] *= 1.1;
+    a[elbow + 1] *= 0.9;  // shrunk (the effects' volume taken out of the target): about its centre
     std::vector<dvec3> moved = centers;
     hold_growth_off_the_fold(s, posed, a0, b0, a, b, moved);
     const dmat3 frame = glm::mat3_cast(glm::normalize(rotations[elbow]));
