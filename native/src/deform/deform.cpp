@@ -145,59 +145,54 @@ double control_trust(const Sweep& s, const VolumeQuadrature& q, const std::vecto
            std::clamp((kept - kKeptNone) / (kKeptFull - kKeptNone), 0.0, 1.0);
 }
 
-/// Of a key's area change, the share its first half-axis (a) takes: all of it on the axis
-/// nearest the axis the sweep bends about there (the rotation from the previous to the next
-/// key since rest), so a trunk bent forward fills out at its flanks, not along its spine; half
-/// each where the sweep twists rather than bends. Continuous in the pose.
-double bend_share_a(const Sweep& s, const SweepGeometry& posed, int k) {
-    const auto& q = posed.key_rotations();
-    const auto& r = s.rest_geometry.key_rotations();
-    const int k0 = std::max(0, k - 1), k1 = std::min(s.key_count() - 1, k + 1);
-    const dquat turn = (q[k1] * glm::conjugate(r[k1])) * glm::conjugate(q[k0] * glm::conjugate(r[k0]));
-    const dvec3 axis(turn.x, turn.y, turn.z);  // sin(angle / 2) times the unit axis
-    const dmat3 frame = glm::mat3_cast(glm::normalize(q[k]));
-    const double ca = glm::dot(axis, frame[0]), cb = glm::dot(axis, frame[1]);
-    const double across = ca * ca + cb * cb, all = glm::dot(axis, axis);
-    if (!(across > 1e-12)) return 0.5;
-    // how much of the turn is a bend (1) rather than a twist about the sweep (0)
-    const double bend = across / all;
-    return 0.5 + bend * (ca * ca / across - 0.5);
-}
+/// How the sweep bends at key k: the turn from the previous to the next key since rest, seen
+/// in the key's posed axes.
+struct BendAtKey {
+    dmat3 frame{1.0};
+    dvec3 turn{0.0};  ///< sin(angle / 2) times the unit axis, the rotation's w made >= 0
 
-/// Where the inside of the bend lies in key k's plane (the direction the sweep turns towards
-/// there): its components along the key's half-axes, zero where the sweep only twists.
-struct InsideOfBend {
-    dvec3 a_axis{0.0}, b_axis{0.0};
-    double along_a = 0.0, along_b = 0.0;
+    /// Of the key's area change, the share its first half-axis (a) takes: all of it on the
+    /// axis nearest the axis the sweep bends about, so a trunk bent forward fills out at its
+    /// flanks, not along its spine; half each where the sweep twists rather than bends.
+    /// Continuous in the pose.
+    double axis_share_a() const {
+        const double ca = glm::dot(turn, frame[0]), cb = glm::dot(turn, frame[1]);
+        const double across = ca * ca + cb * cb, all = glm::dot(turn, turn);
+        if (!(across > 1e-12)) return 0.5;
+        // how much of the turn is a bend (1) rather than a twist about the sweep (0)
+        const double bend = across / all;
+        return 0.5 + bend * (ca * ca / across - 0.5);
+    }
+    /// The inside of the bend (the direction the sweep turns towards) in the key's plane, as
+    /// components along its half-axes: a unit vector, or zero where the sweep only twists.
+    dvec2 inside() const {
+        const dvec3 d = glm::cross(turn, frame[2]);  // a turn about A takes the normal N towards A x N
+        const dvec2 in(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
+        const double len = std::hypot(in.x, in.y);
+        return len > 1e-9 ? in / len : dvec2(0.0);
+    }
     /// The key's move that keeps its outside edge in place as it grows by (grow_a, grow_b).
     dvec3 holding_outside(double grow_a, double grow_b) const {
-        return grow_a * along_a * a_axis + grow_b * along_b * b_axis;
+        const dvec2 in = inside();
+        return grow_a * in.x * frame[0] + grow_b * in.y * frame[1];
     }
 };
 
-InsideOfBend inside_of_bend(const Sweep& s, const SweepGeometry& posed, int k) {
+BendAtKey bend_at_key(const Sweep& s, const SweepGeometry& posed, int k) {
     const auto& q = posed.key_rotations();
     const auto& r = s.rest_geometry.key_rotations();
     const int k0 = std::max(0, k - 1), k1 = std::min(s.key_count() - 1, k + 1);
     dquat turn = (q[k1] * glm::conjugate(r[k1])) * glm::conjugate(q[k0] * glm::conjugate(r[k0]));
     if (turn.w < 0.0) turn = -turn;
-    const dmat3 frame = glm::mat3_cast(glm::normalize(q[k]));
-    InsideOfBend in;
-    in.a_axis = frame[0];
-    in.b_axis = frame[1];
-    // a turn about A takes the normal N towards A x N
-    const dvec3 d = glm::cross(dvec3(turn.x, turn.y, turn.z), frame[2]);
-    const double len = std::hypot(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
-    if (len > 1e-9) {
-        in.along_a = glm::dot(d, frame[0]) / len;
-        in.along_b = glm::dot(d, frame[1]) / len;
-    }
-    return in;
+    BendAtKey bend;
+    bend.frame = glm::mat3_cast(glm::normalize(q[k]));
+    bend.turn = dvec3(turn.x, turn.y, turn.z);
+    return bend;
 }
 
 }  // namespace
 
-void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
+bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b, std::vector<dvec3>& shifts) {
     // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
     // shorter than at rest where it bends; each key's cross-section grows by what its two
@@ -230,6 +225,7 @@ void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
     // 1.54x its rest distance, Preserve Volume 1.07); grown along the bend's axis alone its
     // flanks rose in a band where it bends; all inside, the belly folded into a notch.
     constexpr double kInside = 0.35;
+    bool moved = false;
     for (int k = 0; k < K; ++k) {
         double r = 0.0, w = 0.0;
         for (int i = -2; i <= 2; ++i)
@@ -238,15 +234,18 @@ void restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
         // Within rounding of the rest length (the rest pose) nothing changes, bit for bit.
         if (std::abs(r - 1.0) < 1e-9) continue;
         const double area = 1.0 + strength * (r - 1.0);
-        const InsideOfBend in = inside_of_bend(s, posed, k);
-        const double ia2 = in.along_a * in.along_a, ib2 = in.along_b * in.along_b;
-        const double inside_a = ia2 + ib2 > 1e-12 ? ia2 / (ia2 + ib2) : 0.5;
-        const double axis_a = bend_share_a(s, posed, k);
-        shifts[k] = in.holding_outside(a[k] * (std::pow(area, kInside * inside_a) - 1.0),
-                                       b[k] * (std::pow(area, kInside * (1.0 - inside_a)) - 1.0));
+        const BendAtKey bend = bend_at_key(s, posed, k);
+        const dvec2 in = bend.inside();
+        const double in2 = in.x * in.x + in.y * in.y;
+        const double inside_a = in2 > 1e-12 ? in.x * in.x / in2 : 0.5;
+        const double axis_a = bend.axis_share_a();
+        shifts[k] = bend.holding_outside(a[k] * (std::pow(area, kInside * inside_a) - 1.0),
+                                         b[k] * (std::pow(area, kInside * (1.0 - inside_a)) - 1.0));
         a[k] *= std::pow(area, kInside * inside_a + (1.0 - kInside) * axis_a);
         b[k] *= std::pow(area, kInside * (1.0 - inside_a) + (1.0 - kInside) * (1.0 - axis_a));
+        moved = moved || shifts[k] != dvec3(0.0);
     }
+    return moved;
 }
 
 void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const std::vector<double>& a_before,
@@ -264,7 +263,7 @@ void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const 
     // lost 56 % of its region's volume at 120 degrees instead of 19 %.
     for (int k = 0; k < s.key_count(); ++k) {
         if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
-        centers[k] -= 0.5 * inside_of_bend(s, posed, k)
+        centers[k] -= 0.5 * bend_at_key(s, posed, k)
                                 .holding_outside(std::max(0.0, a[k] - a_before[k]), std::max(0.0, b[k] - b_before[k]));
     }
 }
@@ -348,11 +347,12 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             // First where it was lost, key by key; the controller corrects what is left.
             if (s.bends_smoothly) {
                 std::vector<dvec3> shifts;
-                restore_local_volume(s, g, strength, a, b, shifts);
-                for (int k = 0; k < s.key_count(); ++k) centers[k] += shifts[k];
-                g = SweepGeometry(centers, rotations);
-                density = volume_density(s.quadrature, g);
-                form = VolumeForm(s.quadrature, density);
+                if (restore_local_volume(s, g, strength, a, b, shifts)) {  // keys moved: a new sweep
+                    for (int k = 0; k < s.key_count(); ++k) centers[k] += shifts[k];
+                    g = SweepGeometry(centers, rotations);
+                    density = volume_density(s.quadrature, g);
+                    form = VolumeForm(s.quadrature, density);
+                }
             }
             const std::vector<double> a_before = a, b_before = b;
             const VolumeControlResult r = control_volume(form, s.control_keys, target, a, b);

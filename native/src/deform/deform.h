@@ -20,7 +20,8 @@ namespace sd {
 /// inside of the bend, the key moved by shifts[k] so that its outside stays in place, the rest
 /// along the bend's axis. The volume controller then corrects what is left.
 /// @param shifts  #K output, armature space
-void restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength, std::vector<double>& a,
+/// @return whether any key moved (shifts not all zero)
+bool restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength, std::vector<double>& a,
                           std::vector<double>& b, std::vector<dvec3>& shifts);
 
 /// Limbs: after the volume controller grew keys from a_before, b_before to a, b, moves each
