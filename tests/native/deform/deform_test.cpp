@@ -32,6 +32,28 @@ double ring_area(const std::vector<float>& p, int first, int count) {
     return 0.5 * glm::length(sum);
 }
 
+/// The key ellipses of `rig`'s first sweep placed for the posed bone matrices `bones`
+/// (Sect. 4.1, pose_keys).
+struct PosedKeys {
+    std::vector<dvec3> centers;
+    std::vector<dquat> rotations;
+};
+PosedKeys posed_keys(const Rig& rig, const std::vector<float>& bones) {
+    SkeletonPose pose;
+    pose.set(rig.skeleton, bones.data());
+    PosedKeys out;
+    pose_keys(rig.sweeps[0], pose, out.centers, out.rotations);
+    return out;
+}
+
+/// The arm's skeleton with one sweep of the given keys.
+Rig arm_with_keys(const test::Arm& arm, const std::vector<KeyEllipse>& keys) {
+    Rig rig;
+    rig.skeleton = arm.rig.skeleton;
+    rig.add_sweep(keys);
+    return rig;
+}
+
 TEST(Deform, RestPoseReproducesTheMesh) {
     const test::Arm arm;
     Deformer d(arm.rig, arm.bind());
@@ -79,12 +101,7 @@ TEST(Deform, LocalRestorationGrowsSectionsInsideTheBendAndAlongItsAxis) {
     // the bend's axis (z, the b axis) in place.
     const test::Arm arm;
     const Sweep& s = arm.rig.sweeps[0];
-    SkeletonPose pose;
-    const std::vector<float> m = arm.pose(glm::radians(90.0));
-    pose.set(arm.rig.skeleton, m.data());
-    std::vector<dvec3> centers;
-    std::vector<dquat> rotations;
-    pose_keys(s, pose, centers, rotations);
+    const auto [centers, rotations] = posed_keys(arm.rig, arm.pose(glm::radians(90.0)));
     const SweepGeometry posed(centers, rotations);
     std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
     std::vector<dvec3> shifts;
@@ -113,12 +130,7 @@ TEST(Deform, LimbKeysGrownByTheControllerStayOutOfTheFold) {
     // outside edge one and a half times as far; keys that did not grow, or shrank, stay.
     const test::Arm arm;
     const Sweep& s = arm.rig.sweeps[0];
-    SkeletonPose pose;
-    const std::vector<float> m = arm.pose(glm::radians(120.0));
-    pose.set(arm.rig.skeleton, m.data());
-    std::vector<dvec3> centers;
-    std::vector<dquat> rotations;
-    pose_keys(s, pose, centers, rotations);
+    const auto [centers, rotations] = posed_keys(arm.rig, arm.pose(glm::radians(120.0)));
     const SweepGeometry posed(centers, rotations);
     const std::vector<double> a0 = s.rest_half_axes.a, b0 = s.rest_half_axes.b;
     std::vector<double> a = a0, b = b0;
@@ -147,13 +159,7 @@ TEST(Deform, LimbKeysGrownByTheControllerStayOutOfTheFold) {
 
 TEST(Deform, ElbowKeyBisectsTheJoint) {
     const test::Arm arm;
-    const Sweep& s = arm.rig.sweeps[0];
-    SkeletonPose pose;
-    const auto m = arm.pose(glm::radians(90.0));
-    pose.set(arm.rig.skeleton, m.data());
-    std::vector<dvec3> c;
-    std::vector<dquat> q;
-    pose_keys(s, pose, c, q);
+    const auto [c, q] = posed_keys(arm.rig, arm.pose(glm::radians(90.0)));
     const dvec3 n = glm::mat3_cast(q[3])[2];
     EXPECT_LT(glm::length(c[3] - dvec3(1, 0, 0)), 1e-12);              // stays at the joint
     EXPECT_LT(glm::length(n - glm::normalize(dvec3(1, 1, 0))), 1e-9);  // 45° of the 90° bend
@@ -167,15 +173,7 @@ TEST(Deform, ForearmKeysOffTheBoneTurnAboutTheBone) {
     std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
     const double offset = 0.02;
     for (int k : {4, 5}) keys[k].center.y = offset;
-    Rig rig;
-    rig.skeleton = arm.rig.skeleton;
-    rig.add_sweep(keys);
-    SkeletonPose pose;
-    const std::vector<float> m = arm.pose(0.0, glm::radians(180.0));
-    pose.set(rig.skeleton, m.data());
-    std::vector<dvec3> c;
-    std::vector<dquat> q;
-    pose_keys(rig.sweeps[0], pose, c, q);
+    const auto [c, q] = posed_keys(arm_with_keys(arm, keys), arm.pose(0.0, glm::radians(180.0)));
     for (int k : {4, 5}) {
         const double share = (keys[k].center.x - 1.0);  // fraction along the forearm; wrist twist 1
         const double turn = glm::radians(180.0) * share;
@@ -197,16 +195,9 @@ TEST(Deform, ThickChainKeysTurnOnTheArcNotTheChord) {
     const test::Arm arm(0.6, 0.5);
     std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
     for (KeyEllipse& e : keys) e.center.y += 0.3;
-    Rig rig;
-    rig.skeleton = arm.rig.skeleton;
-    rig.add_sweep(keys);
+    const Rig rig = arm_with_keys(arm, keys);
     const Sweep& s = rig.sweeps[0];
-    SkeletonPose pose;
-    const std::vector<float> m = arm.pose(glm::radians(90.0));
-    pose.set(rig.skeleton, m.data());
-    std::vector<dvec3> c;
-    std::vector<dquat> q;
-    pose_keys(s, pose, c, q);
+    const auto [c, q] = posed_keys(rig, arm.pose(glm::radians(90.0)));
     const dvec3 joint(1, 0, 0);
     int blended_across = 0;
     for (int k = 0; k < s.key_count(); ++k) {
