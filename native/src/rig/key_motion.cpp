@@ -114,19 +114,17 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
             // would otherwise swing round the bone and ripple the outline.
             const KeyEllipse& j = keys[after[k]];
             const Link& link = links[k];
-            m.to_bone = j.bone;
             m.twist_share = link.fraction_of(e.center) * j.twist_fraction;
-            const dvec3 d = link.end - link.start;
-            if (glm::length(d) > 0.0) {
-                m.axis = glm::normalize(d);
-                m.turns_about_pivot = true;
-                m.pivot = link.start + glm::dot(e.center - link.start, m.axis) * m.axis;
-            } else {
-                m.axis = j.normal();
-            }
-            if (m.twist_share == 0.0) {
-                m.to_bone = e.bone;
-                m.turns_about_pivot = false;
+            if (m.twist_share > 0.0) {  // else rigid with its own bone
+                m.to_bone = j.bone;
+                const dvec3 d = link.end - link.start;
+                if (glm::length(d) > 0.0) {
+                    m.axis = glm::normalize(d);
+                    m.turns_about_pivot = true;
+                    m.pivot = link.start + glm::dot(e.center - link.start, m.axis) * m.axis;
+                } else {
+                    m.axis = j.normal();
+                }
             }
         }
     }

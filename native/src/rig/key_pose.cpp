@@ -37,7 +37,8 @@ void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>&
             // bone moves it by deform * c - c and turns it by its rotation. A linear blend of
             // the moves cut the chord between bones turned by different angles, so a bent
             // trunk's sections fell back towards the spine and pushed the lower back out
-            // (MakeHuman's skin 1.28x its rest distance from the spine at spine_bend_45).
+            // (MakeHuman's skin 1.34x its rest distance from the spine at spine_bend_45; 1.28x
+            // blended so).
             // (The center as rest + the blended move, so the rest pose gives it back exactly.)
             dquat real(0, 0, 0, 0), dual(0, 0, 0, 0);
             const dquat& first = pose.rotation[m.blend.front().first];
