@@ -145,6 +145,9 @@ double control_trust(const Sweep& s, const VolumeQuadrature& q, const std::vecto
            std::clamp((kept - kKeptNone) / (kKeptFull - kKeptNone), 0.0, 1.0);
 }
 
+/// The bend across a limb key's neighbours from which its growth is held off the fold in full.
+constexpr double kFullHoldBend = 0.25 * 3.14159265358979323846;  // 45 degrees
+
 /// How the sweep bends at key k: the turn from the previous to the next key since rest, seen
 /// in the key's posed axes.
 struct BendAtKey {
@@ -171,9 +174,15 @@ struct BendAtKey {
         const double len = std::hypot(in.x, in.y);
         return len > 1e-9 ? in / len : dvec2(0.0);
     }
-    /// The key's move that keeps its outside edge in place as it grows by (grow_a, grow_b).
+    /// The key's move that keeps its outside edge in place as it grows by (grow_a, grow_b),
+    /// in full where the keys either side differ by a bend of kFullHoldBend or more, fading
+    /// linearly in sin(bend / 2) below it: inside() turns to any direction in the key's plane
+    /// as the bend vanishes, and a key grown at a slight bend (a shoulder lowered 20 degrees)
+    /// has no fold to keep out of.
     dvec3 holding_outside(double grow_a, double grow_b) const {
-        const dvec2 in = inside();
+        const dvec3 d = glm::cross(turn, frame[2]);
+        const double across = std::hypot(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
+        const dvec2 in = inside() * std::min(1.0, across / std::sin(0.5 * kFullHoldBend));
         return grow_a * in.x * frame[0] + grow_b * in.y * frame[1];
     }
 };
@@ -260,7 +269,10 @@ void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const 
     // outside 1.14 -> 1.20 (Preserve Volume 1.21). Moved by all of it, the outside rose past
     // Preserve Volume's. A key the controller shrinks (the anatomical effects' volume taken out
     // of its target) shrinks about its centre: held too, CesiumMan's elbow with the effects
-    // lost 56 % of its region's volume at 120 degrees instead of 19 %.
+    // lost 56 % of its region's volume at 120 degrees instead of 19 %. Below a 45 degree bend
+    // the hold fades (BendAtKey::holding_outside): MakeHuman's elbow at 120 degrees 41 -> 39
+    // pairs (Preserve Volume 44); the procedural characters' shoulder at 20 degrees r_max
+    // 1.035 -> 1.024 (Preserve Volume 1.025 / 1.020).
     for (int k = 0; k < s.key_count(); ++k) {
         if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
         centers[k] -= 0.5 * bend_at_key(s, posed, k)

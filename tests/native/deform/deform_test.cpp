@@ -157,6 +157,30 @@ TEST(Deform, LimbKeysGrownByTheControllerStayOutOfTheFold) {
         if (k != elbow) EXPECT_EQ(moved[k], centers[k]) << "key " << k;
 }
 
+TEST(Deform, GrowthIsHeldOffTheFoldInProportionToTheBend) {
+    // Below a 45 degree bend across the key's neighbours the hold fades with sin(bend / 2),
+    // down to none at rest: the inside of a bend has no direction there, and a slight bend
+    // has no fold to keep out of.
+    const test::Arm arm;
+    const Sweep& s = arm.rig.sweeps[0];
+    const int elbow = 3;
+    const auto moved_by = [&](double degrees) {
+        const auto [centers, rotations] = posed_keys(arm.rig, arm.pose(glm::radians(degrees)));
+        std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
+        a[elbow] *= 1.1;
+        b[elbow] *= 1.1;
+        std::vector<dvec3> moved = centers;
+        hold_growth_off_the_fold(s, SweepGeometry(centers, rotations), s.rest_half_axes.a, s.rest_half_axes.b, a, b,
+                                 moved);
+        return glm::length(moved[elbow] - centers[elbow]) / (0.1 * s.rest_half_axes.a[elbow]);
+    };
+    EXPECT_NEAR(moved_by(45.0), 0.5, 1e-9);
+    EXPECT_NEAR(moved_by(90.0), 0.5, 1e-9);
+    EXPECT_NEAR(moved_by(20.0), 0.5 * std::sin(glm::radians(10.0)) / std::sin(glm::radians(22.5)), 1e-7);
+    EXPECT_LT(moved_by(1e-4), 1e-4);
+    EXPECT_EQ(moved_by(0.0), 0.0);
+}
+
 TEST(Deform, ElbowKeyBisectsTheJoint) {
     const test::Arm arm;
     const auto [c, q] = posed_keys(arm.rig, arm.pose(glm::radians(90.0)));
