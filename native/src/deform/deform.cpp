@@ -271,8 +271,7 @@ void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const 
     // of its target) shrinks about its centre: held too, CesiumMan's elbow with the effects
     // lost 56 % of its region's volume at 120 degrees instead of 19 %. Below a 45 degree bend
     // the hold fades (BendAtKey::holding_outside): MakeHuman's elbow at 120 degrees 41 -> 39
-    // pairs (Preserve Volume 44); the procedural characters' shoulder at 20 degrees r_max
-    // 1.035 -> 1.024 (Preserve Volume 1.025 / 1.020).
+    // pairs (Preserve Volume 44), its elbow at 90 degrees r_max 1.101 -> 1.093.
     for (int k = 0; k < s.key_count(); ++k) {
         if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
         centers[k] -= 0.5 * bend_at_key(s, posed, k)
