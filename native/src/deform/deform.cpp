@@ -174,16 +174,17 @@ struct BendAtKey {
         const double len = std::hypot(in.x, in.y);
         return len > 1e-9 ? in / len : dvec2(0.0);
     }
-    /// The key's move that keeps its outside edge in place as it grows by (grow_a, grow_b),
-    /// in full where the keys either side differ by a bend of kFullHoldBend or more, fading
-    /// linearly in sin(bend / 2) below it: inside() turns to any direction in the key's plane
-    /// as the bend vanishes, and a key grown at a slight bend (a shoulder lowered 20 degrees)
-    /// has no fold to keep out of.
+    /// The key's move that keeps its outside edge in place as it grows by (grow_a, grow_b).
     dvec3 holding_outside(double grow_a, double grow_b) const {
+        const dvec2 in = inside();
+        return grow_a * in.x * frame[0] + grow_b * in.y * frame[1];
+    }
+    /// 1 where the keys either side differ by a bend of `full` or more, falling linearly in
+    /// sin(bend / 2) to 0 at rest, where inside() may point any way in the key's plane.
+    double bent_share(double full) const {
         const dvec3 d = glm::cross(turn, frame[2]);
         const double across = std::hypot(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
-        const dvec2 in = inside() * std::min(1.0, across / std::sin(0.5 * kFullHoldBend));
-        return grow_a * in.x * frame[0] + grow_b * in.y * frame[1];
+        return std::min(1.0, across / std::sin(0.5 * full));
     }
 };
 
@@ -270,12 +271,14 @@ void hold_growth_off_the_fold(const Sweep& s, const SweepGeometry& posed, const 
     // Preserve Volume's. A key the controller shrinks (the anatomical effects' volume taken out
     // of its target) shrinks about its centre: held too, CesiumMan's elbow with the effects
     // lost 56 % of its region's volume at 120 degrees instead of 19 %. Below a 45 degree bend
-    // the hold fades (BendAtKey::holding_outside): MakeHuman's elbow at 120 degrees 41 -> 39
+    // the hold fades (BendAtKey::bent_share; the trunk's restoration does not fade: its keys
+    // are a few degrees apart): MakeHuman's elbow at 120 degrees 41 -> 39
     // pairs (Preserve Volume 44), its elbow at 90 degrees r_max 1.101 -> 1.093.
     for (int k = 0; k < s.key_count(); ++k) {
         if (a[k] == a_before[k] && b[k] == b_before[k]) continue;
-        centers[k] -= 0.5 * bend_at_key(s, posed, k)
-                                .holding_outside(std::max(0.0, a[k] - a_before[k]), std::max(0.0, b[k] - b_before[k]));
+        const BendAtKey bend = bend_at_key(s, posed, k);
+        centers[k] -= 0.5 * bend.bent_share(kFullHoldBend) *
+                      bend.holding_outside(std::max(0.0, a[k] - a_before[k]), std::max(0.0, b[k] - b_before[k]));
     }
 }
 
