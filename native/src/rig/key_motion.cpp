@@ -18,9 +18,12 @@ struct Link {
     }
 };
 
-/// Thick chains: each key's blend of the chain's bones, over a window of half-width `h`
-/// along the chain (clipped at the chain's start, so the first keys stay with the first
-/// bone, as the pelvis holds the hips; the last bone reaches on beyond the chain).
+/// Thick chains: each key's blend of the chain's bones, each bone weighted by the share of a
+/// tent of half-width `h` centred on the key that lies along it (the tent clipped at the
+/// chain's start, so the first keys stay with the first bone, as the pelvis holds the hips;
+/// the last bone reaches on beyond the chain). A tent, not a box: a bone's weight then has a
+/// continuous slope along the chain. With a box the slope jumped wherever the window's edge
+/// crossed a joint, and each jump was a band across a bent torso's flank.
 void blend_thick_chain(const std::vector<KeyEllipse>& keys, const Skeleton& skeleton, const std::vector<char>& blended,
                        double h, std::vector<KeyMotion>& motions) {
     const int K = static_cast<int>(keys.size());
@@ -44,8 +47,13 @@ void blend_thick_chain(const std::vector<KeyEllipse>& keys, const Skeleton& skel
         KeyMotion& m = motions[k];
         m.blend.clear();
         double total = 0.0;
+        const auto under_tent = [&](double x) {  // the tent's area from s - r to x
+            const double u = std::clamp(x - s, -r, r);
+            return u <= 0.0 ? (u + r) * (u + r) / (2.0 * r) : 0.5 * r + u - u * u / (2.0 * r);
+        };
         for (int i = 0; i < n; ++i) {
-            const double w = std::max(0.0, std::min(s + r, to[i]) - std::max(s - r, from[i]));
+            const double lo = std::max(s - r, from[i]), hi = std::min(s + r, to[i]);
+            const double w = r > 0.0 && hi > lo ? under_tent(hi) - under_tent(lo) : 0.0;
             if (w > 0.0) {
                 m.blend.push_back({bones[i], w});
                 total += w;
@@ -128,7 +136,7 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
             }
         }
     }
-    if (thick) blend_thick_chain(keys, skeleton, blended, median(radii), motions);
+    if (thick) blend_thick_chain(keys, skeleton, blended, kThickChainTent * median(radii), motions);
     return motions;
 }
 

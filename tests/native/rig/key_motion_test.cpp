@@ -1,0 +1,93 @@
+// How the keys of a thick chain (a trunk) follow its bones (rig/key_motion.h).
+#include "rig/key_motion.h"
+
+#include <gtest/gtest.h>
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <cmath>
+#include <map>
+#include <vector>
+
+namespace sd {
+namespace {
+
+/// Three bones along x, 1, 0.5 and 1.5 long (vertebrae of unequal length), and an intermediate
+/// key every `step` along them, half-axes 1: a chain far thicker than its links are long.
+struct ThickChain {
+    Skeleton skeleton;
+    std::vector<KeyEllipse> keys;
+    double step = 0.005;
+
+    ThickChain() {
+        const std::vector<double> joints{0.0, 1.0, 1.5, 3.0};
+        std::vector<dmat4> rest;
+        std::vector<dvec3> heads, tails;
+        for (int b = 0; b < 3; ++b) {
+            heads.emplace_back(joints[b], 0, 0);
+            tails.emplace_back(joints[b + 1], 0, 0);
+            rest.push_back(glm::translate(dmat4(1.0), heads.back()));
+        }
+        skeleton = Skeleton::build({-1, 0, 1}, rest, heads, tails);
+        for (double x = 0.5 * step; x < 3.0; x += step) {
+            KeyEllipse e;
+            e.center = dvec3(x, 0, 0);
+            e.orientation = glm::angleAxis(glm::radians(90.0), dvec3(0, 1, 0));  // normal along x
+            e.a = e.b = 1.0;
+            e.bone = x < 1.0 ? 0 : x < 1.5 ? 1 : 2;
+            keys.push_back(e);
+        }
+    }
+};
+
+TEST(KeyMotion, ThickChainKeysBlendTheirBonesWithWeightsOfContinuousSlope) {
+    // Each bone's weight, read along the chain, has a bounded second derivative (2 / h^2 for a
+    // tent of half-width h): no kink where the blend reaches a joint, which drew a band across
+    // a bent torso's flank. A box window's weights kink there (their second difference is of
+    // the order of step / h, not step^2 / h^2).
+    const ThickChain chain;
+    const std::vector<KeyMotion> motions = key_motions(chain.keys, chain.skeleton);
+    const double h = kThickChainTent * 1.0;  // every key's larger half-axis is 1
+    const int K = static_cast<int>(chain.keys.size());
+    std::vector<std::map<int, double>> weight(K);
+    for (int k = 0; k < K; ++k) {
+        double total = 0.0;
+        for (const auto& [bone, w] : motions[k].blend) {
+            weight[k][bone] = w;
+            total += w;
+        }
+        if (motions[k].blend.empty()) weight[k][chain.keys[k].bone] = total = 1.0;  // rigid
+        EXPECT_NEAR(total, 1.0, 1e-12) << "key " << k;
+    }
+    const auto w = [&](int k, int bone) { return weight[k].count(bone) ? weight[k].at(bone) : 0.0; };
+    double worst = 0.0;
+    int blended = 0;
+    for (int k = 1; k + 1 < K; ++k) {
+        if (chain.keys[k - 1].center.x < h) continue;  // the tent is clipped at the chain's start
+        blended += motions[k].blend.size() > 1 ? 1 : 0;
+        for (int bone = 0; bone < 3; ++bone)
+            worst = std::max(worst, std::abs(w(k - 1, bone) - 2.0 * w(k, bone) + w(k + 1, bone)));
+    }
+    EXPECT_GT(blended, K / 4) << "the chain must be thick, its keys blended";
+    EXPECT_LE(worst, 2.0 * chain.step * chain.step / (h * h) * 1.0001);
+}
+
+TEST(KeyMotion, ThickChainKeysLeanToTheBoneTheySitOn) {
+    // Mid-bone on the long last bone, a key follows that bone most; the middle bone, shorter
+    // than the tent, never takes all of a key.
+    const ThickChain chain;
+    const std::vector<KeyMotion> motions = key_motions(chain.keys, chain.skeleton);
+    for (size_t k = 0; k < chain.keys.size(); ++k) {
+        const double x = chain.keys[k].center.x;
+        double on_own = motions[k].blend.empty() ? 1.0 : 0.0, most = 0.0;
+        for (const auto& [bone, w] : motions[k].blend) {
+            if (bone == chain.keys[k].bone) on_own = w;
+            most = std::max(most, w);
+        }
+        if (x > 2.0 && x < 2.5) EXPECT_DOUBLE_EQ(on_own, std::max(on_own, most)) << "x " << x;
+        if (chain.keys[k].bone == 1) EXPECT_LT(on_own, 1.0) << "x " << x;
+    }
+}
+
+}  // namespace
+}  // namespace sd
