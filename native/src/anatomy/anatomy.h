@@ -150,6 +150,8 @@ private:
     void push_zone(const RestoreZone& z, double height, float* positions, std::vector<int32_t>* moved);
     void build_regions(int joint);
     void rebuild_collision_set();
+    /// Removes from `pairs` those of two triangles that already intersect at rest.
+    void drop_rest_pairs(std::vector<TrianglePair>& pairs) const;
     void add_automatic_effects(int joint);
     FoldingParams folding_params(int joint) const;
     double protrusion_falloff(int joint) const;
@@ -198,6 +200,7 @@ private:
     Falloff falloff_;
     SkinFolding folding_;
     std::vector<TrianglePair> pairs_, single_part_;
+    std::vector<char> rest_intersecting_;  // per triangle: it intersects another at rest
     std::vector<int32_t> moved_, changed_, triangle_stamp_;
     int stamp_ = 0;
     SkeletonPose pose_;
