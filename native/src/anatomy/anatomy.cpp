@@ -338,9 +338,10 @@ void Anatomy::deform(Deformer& d, const float* pose, float* out) {
 }
 
 void Anatomy::drop_rest_pairs(std::vector<TrianglePair>& pairs) const {
-    pairs.erase(std::remove_if(pairs.begin(), pairs.end(),
-                               [&](const TrianglePair& q) { return rest_intersecting_[q.a] && rest_intersecting_[q.b]; }),
-                pairs.end());
+    pairs.erase(
+        std::remove_if(pairs.begin(), pairs.end(),
+                       [&](const TrianglePair& q) { return rest_intersecting_[q.a] && rest_intersecting_[q.b]; }),
+        pairs.end());
 }
 
 int Anatomy::count_intersections(const float* positions, std::vector<TrianglePair>* pairs) {
