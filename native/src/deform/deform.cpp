@@ -166,11 +166,16 @@ struct BendAtKey {
         const double bend = across / all;
         return 0.5 + bend * (ca * ca / across - 0.5);
     }
+    /// Where the key's normal turns, along its half-axes: towards the inside of the bend, of
+    /// length sin(bend / 2) for a pure bend, zero where the sweep only twists.
+    dvec2 towards_inside() const {
+        const dvec3 d = glm::cross(turn, frame[2]);  // a turn about A takes the normal N towards A x N
+        return dvec2(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
+    }
     /// The inside of the bend (the direction the sweep turns towards) in the key's plane, as
     /// components along its half-axes: a unit vector, or zero where the sweep only twists.
     dvec2 inside() const {
-        const dvec3 d = glm::cross(turn, frame[2]);  // a turn about A takes the normal N towards A x N
-        const dvec2 in(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
+        const dvec2 in = towards_inside();
         const double len = std::hypot(in.x, in.y);
         return len > 1e-9 ? in / len : dvec2(0.0);
     }
@@ -182,9 +187,8 @@ struct BendAtKey {
     /// 1 where the keys either side differ by a bend of `full` or more, falling linearly in
     /// sin(bend / 2) to 0 at rest, where inside() may point any way in the key's plane.
     double bent_share(double full) const {
-        const dvec3 d = glm::cross(turn, frame[2]);
-        const double across = std::hypot(glm::dot(d, frame[0]), glm::dot(d, frame[1]));
-        return std::min(1.0, across / std::sin(0.5 * full));
+        const dvec2 in = towards_inside();
+        return std::min(1.0, std::hypot(in.x, in.y) / std::sin(0.5 * full));
     }
 };
 
