@@ -314,6 +314,13 @@ TEST(SelfIntersection, BvhFindsExactlyTheBruteForcePairsOnRandomSoups) {
 
 dvec3 at(const std::vector<float>& p, int v) { return dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); }
 
+/// The farthest any vertex of `p` lies from its place in `q` (same vertex count).
+double largest_move(const std::vector<float>& p, const std::vector<float>& q) {
+    double worst = 0.0;
+    for (int v = 0; v < static_cast<int>(p.size() / 3); ++v) worst = std::max(worst, glm::length(at(p, v) - at(q, v)));
+    return worst;
+}
+
 /// Posed matrices (#B*16) of `skeleton` with the subtree of `lower` turned about the joint so
 /// that the angle between the upper link and the lower link becomes `flexion` (radians), the
 /// lower link moving towards `towards` (the front for an elbow, the back for a knee).
@@ -360,19 +367,34 @@ std::vector<int32_t> ring_triangles(const test::Arm& arm) {
     return t;
 }
 
+/// The arm's sweeps with the anatomical effects at its elbow (folding towards the front, +y).
+struct ArmWithElbowEffects {
+    Binding binding;
+    std::vector<int32_t> triangles;
+    Anatomy anatomy;
+    Deformer deformer;
+
+    explicit ArmWithElbowEffects(const test::Arm& arm)
+        : binding(arm.bind()),
+          triangles(ring_triangles(arm)),
+          anatomy(arm.rig, binding, triangles.data(), static_cast<int>(triangles.size() / 3)),
+          deformer(arm.rig, binding) {
+        const dvec3 front(0, 1, 0);
+        anatomy.add_joint(1, JointKind::Elbow, &front);
+    }
+    /// One frame for the posed bone matrices `pose`.
+    std::vector<float> deform(const std::vector<float>& pose) {
+        std::vector<float> out(binding.rest_positions.size());
+        anatomy.deform(deformer, pose.data(), out.data());
+        return out;
+    }
+};
+
 TEST(Anatomy, RestPoseIsUntouched) {
     const test::Arm arm;
-    const Binding binding = arm.bind();
-    const std::vector<int32_t> tris = ring_triangles(arm);
-    Anatomy anatomy(arm.rig, binding, tris.data(), static_cast<int>(tris.size() / 3));
-    const dvec3 front(0, 1, 0);
-    anatomy.add_joint(1, JointKind::Elbow, &front);
-    Deformer d(arm.rig, binding);
-    std::vector<float> out(arm.mesh.size());
-    anatomy.deform(d, arm.pose(0.0).data(), out.data());
-    double worst = 0.0;
-    for (int v = 0; v < arm.vertex_count(); ++v) worst = std::max(worst, glm::length(at(out, v) - at(arm.mesh, v)));
-    EXPECT_LE(worst, 1e-6);
+    ArmWithElbowEffects fx(arm);
+    const Anatomy& anatomy = fx.anatomy;
+    EXPECT_LE(largest_move(fx.deform(arm.pose(0.0)), arm.mesh), 1e-6);
     EXPECT_EQ(anatomy.stats().pairs_before, 0);
     EXPECT_EQ(anatomy.stats().protrusion_vertices, 0);
     EXPECT_EQ(anatomy.stats().bulge_vertices, 0);
@@ -386,21 +408,14 @@ TEST(Anatomy, TheRestMeshsOwnIntersectionsAreLeftAsTheyAre) {
     test::Arm arm;
     const int spike = 24 * arm.ring_size;  // ring 24 (x = 1, the elbow), its vertex at +y
     arm.mesh[3 * spike + 1] = static_cast<float>(-1.5 * test::Arm::kA);
-    const Binding binding = arm.bind();
-    const std::vector<int32_t> tris = ring_triangles(arm);
-    Anatomy anatomy(arm.rig, binding, tris.data(), static_cast<int>(tris.size() / 3));
-    const dvec3 front(0, 1, 0);
-    anatomy.add_joint(1, JointKind::Elbow, &front);
-    Deformer d(arm.rig, binding);
-    std::vector<float> out(arm.mesh.size());
-    anatomy.deform(d, arm.pose(0.0).data(), out.data());
+    ArmWithElbowEffects fx(arm);
+    Anatomy& anatomy = fx.anatomy;
+    const std::vector<float> out = fx.deform(arm.pose(0.0));
     ASSERT_GT(anatomy.count_intersections(arm.mesh.data()), 0) << "the spike must cross the tube at rest";
-    double worst = 0.0;
-    for (int v = 0; v < arm.vertex_count(); ++v) worst = std::max(worst, glm::length(at(out, v) - at(arm.mesh, v)));
-    EXPECT_LE(worst, 1e-6);
+    EXPECT_LE(largest_move(out, arm.mesh), 1e-6);
     EXPECT_EQ(anatomy.stats().pairs_before, 0);
     // Bent, the inside of the elbow still folds: contact the pose made is resolved.
-    anatomy.deform(d, arm.pose(glm::radians(150.0)).data(), out.data());
+    fx.deform(arm.pose(glm::radians(150.0)));
     EXPECT_GT(anatomy.stats().pairs_before, 0);
     EXPECT_EQ(anatomy.stats().pairs_after, 0);
 }
@@ -445,12 +460,10 @@ TEST(Anatomy, BentTubeIntersectsWithSweepsAndLinearBlendSkinningButNotAfterFoldi
     const size_t lbs_pairs = brute.size();
 
     // Sweeps with the anatomical effects, the pose held for a few frames (volume feedback).
-    Anatomy anatomy(arm.rig, binding, tris.data(), T);
-    const dvec3 front(0, 1, 0);
-    anatomy.add_joint(1, JointKind::Elbow, &front);
-    Deformer d(arm.rig, binding);
-    std::vector<float> out(arm.mesh.size());
-    for (int frame = 0; frame < 10; ++frame) anatomy.deform(d, pose.data(), out.data());
+    ArmWithElbowEffects fx(arm);
+    Anatomy& anatomy = fx.anatomy;
+    std::vector<float> out;
+    for (int frame = 0; frame < 10; ++frame) out = fx.deform(pose);
     brute_force_pairs(mesh, all, out.data(), brute);
     const ClosedRegion tube(mesh, all);
     const double v0 = tube.volume(arm.mesh.data());
@@ -469,35 +482,24 @@ TEST(Anatomy, BentTubeIntersectsWithSweepsAndLinearBlendSkinningButNotAfterFoldi
 
 TEST(Anatomy, ResultDoesNotDependOnTheThreadCount) {
     const test::Arm arm;
-    const Binding binding = arm.bind();
-    const std::vector<int32_t> tris = ring_triangles(arm);
     const auto pose = arm.pose(glm::radians(150.0));
-    const dvec3 front(0, 1, 0);
     std::vector<float> out[2];
     for (int threads : {1, 2}) {
         tbb::global_control c(tbb::global_control::max_allowed_parallelism, threads);
-        Anatomy anatomy(arm.rig, binding, tris.data(), static_cast<int>(tris.size() / 3));
-        anatomy.add_joint(1, JointKind::Elbow, &front);
-        Deformer d(arm.rig, binding);
-        out[threads - 1].resize(arm.mesh.size());
-        for (int frame = 0; frame < 4; ++frame) anatomy.deform(d, pose.data(), out[threads - 1].data());
+        ArmWithElbowEffects fx(arm);
+        for (int frame = 0; frame < 4; ++frame) out[threads - 1] = fx.deform(pose);
     }
     EXPECT_EQ(out[0], out[1]);
 }
 
 TEST(Anatomy, TwoPassFramesDependOnThePoseOnly) {
     const test::Arm arm;
-    const Binding binding = arm.bind();
-    const std::vector<int32_t> tris = ring_triangles(arm);
-    const dvec3 front(0, 1, 0);
     const auto make = [&](std::vector<double> history) {
-        Anatomy anatomy(arm.rig, binding, tris.data(), static_cast<int>(tris.size() / 3));
-        anatomy.add_joint(1, JointKind::Elbow, &front);
-        anatomy.set_volume_feedback(VolumeFeedback::InFrame);
-        Deformer d(arm.rig, binding);
-        std::vector<float> out(arm.mesh.size());
+        ArmWithElbowEffects fx(arm);
+        fx.anatomy.set_volume_feedback(VolumeFeedback::InFrame);
+        std::vector<float> out;
         history.push_back(150.0);
-        for (double deg : history) anatomy.deform(d, arm.pose(glm::radians(deg)).data(), out.data());
+        for (double deg : history) out = fx.deform(arm.pose(glm::radians(deg)));
         return out;
     };
     EXPECT_EQ(make({}), make({90.0, 120.0, 40.0}));
@@ -646,8 +648,7 @@ TEST_P(AnatomyCharacter, FoldsVolumeAndProtrusionAtElbowAndKneeFlexion) {
         const auto rest = io::rest_pose(h.c);
         d.deform(rest.data(), plain.data());
         anatomy.deform(d, rest.data(), out.data());
-        double worst = 0.0;
-        for (int v = 0; v < V; ++v) worst = std::max(worst, glm::length(at(out, v) - at(plain, v)));
+        const double worst = largest_move(out, plain);
         std::printf("  rest pose: effects move the skin by at most %.2e (pairs %d)\n", worst,
                     anatomy.stats().pairs_before);
         EXPECT_LE(worst, 1e-5);
