@@ -231,6 +231,17 @@ def core_result(obj, depsgraph=None, anatomy=False, corrections=False):
     d = native.Deformer(rig, binding)
     d.set_volume_preservation(False, 0.0)
     rest_shape = d.deform(rest, np.empty((d.vertex_count, 3), np.float32))
+    # As the add-on's deformer: the mesh's volume at the joints held, measured on its triangles
+    # (a mesh bound through another's map: on that source's).
+    triangles = sub("blender.mesh_data").triangles
+    source = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
+    if source:
+        srig, sbinding, _, _ = persistence.load(bpy.data.objects[source])
+        measured = native.Deformer(srig, sbinding)
+        measured.hold_joint_volumes(triangles(bpy.data.objects[source].data))
+        d.hold_joint_volumes_of(measured)
+    else:
+        d.hold_joint_volumes(triangles(obj.data))
     if corrections:
         d.set_rig_corrections(*corrections_module.correction_arrays(s))
     d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)

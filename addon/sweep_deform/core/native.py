@@ -171,6 +171,8 @@ SIGNATURES = {
     "sd_deformer_destroy": (None, [DeformerP]),
     "sd_deformer_set_volume_preservation": (Status, [DeformerP, c_int32, c_float]),
     "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32]),
+    "sd_deformer_hold_joint_volumes": (Status, [DeformerP, c_int32, c_int32, I32, P_INT32]),
+    "sd_deformer_hold_joint_volumes_of": (Status, [DeformerP, DeformerP, P_INT32]),
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
     "sd_deform_frames": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT, F32_OUT]),
     "sd_deform_displaced": (Status, [DeformerP, c_int32, F32, c_int32, c_int32, I32, F32, F32_OUT, F32_OUT]),
@@ -614,6 +616,24 @@ class Deformer(_Handle):
         offsets = _f32(offsets).ravel()
         _expect_size("volume offsets", offsets, self.sweep_count)
         _call("sd_deformer_set_volume_offsets", self.ptr, self.sweep_count, offsets)
+
+    def hold_joint_volumes(self, triangles):
+        """Measures the mesh's volume near each limb joint on `triangles` ((T,3) indices into the
+        bound vertices; empty: stop) and holds it from then on. Returns the joints held."""
+        tris = np.ascontiguousarray(triangles, np.int32).ravel()
+        if tris.size % 3:
+            raise ValueError("triangles must be (T,3) vertex indices")
+        count = ctypes.c_int32(0)
+        _call("sd_deformer_hold_joint_volumes", self.ptr, self.vertex_count, tris.size // 3, tris,
+              ctypes.byref(count))
+        return count.value
+
+    def hold_joint_volumes_of(self, source):
+        """Holds the joints' volume with `source`'s measured tables (the same rig). Returns the
+        joints held."""
+        count = ctypes.c_int32(0)
+        _call("sd_deformer_hold_joint_volumes_of", self.ptr, source.ptr, ctypes.byref(count))
+        return count.value
 
     def deform(self, pose, out=None):
         """pose: #B*16 float32 column-major armature-space matrices. Returns (V,3) float32

@@ -175,6 +175,24 @@ SD_API sd_status sd_deformer_set_volume_preservation(sd_deformer* deformer, int3
  * [-9, 0.9] x the sweep's rest volume.
  */
 SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t sweep_count, const float* offsets);
+/*
+ * Holds the mesh's volume near each limb joint (docs/math.md, "The mesh's volume at the
+ * joints"): bends every limb joint of the rig alone through a grid of swings, measures the
+ * volume of the bound mesh near the joint (triangles #T*3, indices into the binding's
+ * vertices), and from then on raises the limb sweep's volume target each frame by what the
+ * mesh loses at the joint's swing. Takes 25 frames' time per joint. Calling it again measures
+ * anew (after an edit of the key ellipses); triangle_count 0 stops it. out_joint_count (may
+ * be NULL): the joints held. On error nothing changes.
+ */
+SD_API sd_status sd_deformer_hold_joint_volumes(sd_deformer* deformer, int32_t vertex_count, int32_t triangle_count,
+                                                const int32_t* triangles, int32_t* out_joint_count);
+/*
+ * Holds the joints' volume as `source` does (its measured tables, see above): for a mesh bound
+ * through another's displacement map, which then follows the same sweeps. Both deformers must
+ * have the same rig (SD_ERR_MISMATCH otherwise). out_joint_count as above.
+ */
+SD_API sd_status sd_deformer_hold_joint_volumes_of(sd_deformer* deformer, const sd_deformer* source,
+                                                   int32_t* out_joint_count);
 
 /*
  * Deforms one frame.

@@ -52,6 +52,36 @@ sd_status sd_deformer_set_volume_offsets(sd_deformer* d, int32_t sweep_count, co
     });
 }
 
+sd_status sd_deformer_hold_joint_volumes(sd_deformer* d, int32_t vertex_count, int32_t triangle_count,
+                                         const int32_t* triangles, int32_t* out_joint_count) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && (triangles || triangle_count == 0), "deformer or triangles is NULL");
+        if (vertex_count != d->deformer->vertex_count())
+            return fail(SD_ERR_MISMATCH, "vertex_count differs from the binding's");
+        std::vector<sd::JointVolumeTable> tables;
+        if (triangle_count != 0) tables = sd::measure_joint_volumes(*d->deformer, triangle_count, triangles);
+        d->deformer->set_joint_volumes(std::move(tables));
+        if (out_joint_count) *out_joint_count = static_cast<int32_t>(d->deformer->joint_volumes().size());
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_hold_joint_volumes_of(sd_deformer* d, const sd_deformer* source, int32_t* out_joint_count) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && source, "deformer or source is NULL");
+        if (sd::rig_fingerprint(d->deformer->rig()) != sd::rig_fingerprint(source->deformer->rig()))
+            return fail(SD_ERR_MISMATCH, "the source deformer has another rig");
+        std::vector<sd::JointVolumeTable> tables;
+        {
+            const auto lock = source->deformer->lock();
+            tables = source->deformer->joint_volumes();
+        }
+        d->deformer->set_joint_volumes(std::move(tables));
+        if (out_joint_count) *out_joint_count = static_cast<int32_t>(d->deformer->joint_volumes().size());
+        return SD_OK;
+    });
+}
+
 namespace {
 
 /// The counts a frame's call gives, against the deformer's rig and binding.

@@ -334,9 +334,28 @@ void Deformer::set_volume_offsets(const std::vector<double>& offsets) {
     volume_offsets_ = offsets;
 }
 
+void Deformer::set_joint_volumes(std::vector<JointVolumeTable> tables) {
+    const std::lock_guard<std::recursive_mutex> guard(mutex_);
+    const int S = static_cast<int>(rig_.sweeps.size()), B = rig_.skeleton.bone_count();
+    for (const JointVolumeTable& t : tables) {
+        if (t.sweep < 0 || t.sweep >= S || t.parent < 0 || t.parent >= B || t.child < 0 || t.child >= B)
+            throw InvalidInput("a joint volume table names a sweep or bone the rig does not have");
+        if (!t.added.empty() && t.added.size() != JointVolumeTable::kSwings * JointVolumeTable::kDirections)
+            throw InvalidInput("a joint volume table has the wrong size");
+        const double v0 = rig_.sweeps[t.sweep].rest_volume;
+        for (double v : t.added)
+            if (!(std::abs(v) <= v0)) throw InvalidInput("a joint volume table adds more than its sweep's rest volume");
+        if (!(t.most_added >= 0.0 && t.most_added <= v0))
+            throw InvalidInput("a joint volume table's bound must lie within its sweep's rest volume");
+    }
+    joint_volumes_ = std::move(tables);
+}
+
 void Deformer::prepare_sweeps(const SkeletonPose& pose) {
     std::vector<dvec3> centers;
     std::vector<dquat> rotations;
+    std::vector<double> joint_added(rig_.sweeps.size(), 0.0);
+    for (const JointVolumeTable& t : joint_volumes_) joint_added[t.sweep] += t.added_volume(pose);
     for (size_t si = 0; si < rig_.sweeps.size(); ++si) {
         const Sweep& s = rig_.sweeps[si];
         pose_keys(s, pose, centers, rotations);
@@ -361,7 +380,8 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             double edited = 0.0;
             if (s.has_corrections && (a != s.rest_half_axes.a || b != s.rest_half_axes.b))
                 edited = before - form.volume(s.rest_half_axes.a.data(), s.rest_half_axes.b.data());
-            const double target = before + strength * (s.corrected_rest_volume + edited - volume_offsets_[si] - before);
+            const double target =
+                before + strength * (s.corrected_rest_volume + edited - volume_offsets_[si] + joint_added[si] - before);
             // First where it was lost, key by key; the controller corrects what is left.
             if (s.bends_smoothly) {
                 std::vector<dvec3> shifts;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "bind/bind.h"
+#include "deform/joint_volume.h"
 #include "deform/linear_blend_skinning.h"
 #include "rig/rig.h"
 #include "deform/sweep_kernel.h"
@@ -44,6 +45,13 @@ public:
     void set_volume_preservation(bool enabled, double strength);
     /// Per-sweep I_C subtracted from the rest volume to form the controller's target.
     void set_volume_offsets(const std::vector<double>& offsets);
+    bool volume_enabled() const { return volume_enabled_; }
+    double volume_strength() const { return volume_strength_; }
+    const std::vector<double>& volume_offsets() const { return volume_offsets_; }
+    /// Each frame raises a limb sweep's target by what its joints' tables say the mesh near
+    /// them loses in the pose (joint_volume.h; none until given). @throws InvalidInput
+    void set_joint_volumes(std::vector<JointVolumeTable> tables);
+    const std::vector<JointVolumeTable>& joint_volumes() const { return joint_volumes_; }
     /// Replaces the key-ellipse corrections (Sect. 4.2) of the deformer's rig; the binding
     /// stays valid (it was made against the uncorrected rest sweeps). @throws InvalidInput
     void set_corrections(const std::vector<CorrectionRecord>& records) {
@@ -93,6 +101,7 @@ private:
     bool volume_enabled_ = true;
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
+    std::vector<JointVolumeTable> joint_volumes_;
 
     std::vector<std::vector<dquat>> rest_key_rotations_;  // per sweep, uncorrected rest keys
     std::vector<std::vector<dquat>> key_rotations_;       // per sweep, of the last frame

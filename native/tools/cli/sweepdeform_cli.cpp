@@ -664,6 +664,19 @@ int run(const Options& o) {
     check(sd_deformer_create(h.rig, deformed_binding, &h.deformer), "sd_deformer_create");
     check(sd_deformer_set_volume_preservation(h.deformer, o.volume ? 1 : 0, static_cast<float>(o.volume_strength)),
           "sd_deformer_set_volume_preservation");
+    // The mesh's volume at the limb joints, as the extension holds it: measured on the
+    // character's own triangles, also for points bound through its map (they follow its sweeps).
+    {
+        sd_deformer* measured = nullptr;
+        check(sd_deformer_create(h.rig, h.binding, &measured), "sd_deformer_create");
+        struct DeformerGuard {
+            sd_deformer* d;
+            ~DeformerGuard() { sd_deformer_destroy(d); }
+        } measured_guard{measured};
+        check(sd_deformer_hold_joint_volumes(measured, V, T, c.triangles.data(), nullptr),
+              "sd_deformer_hold_joint_volumes");
+        check(sd_deformer_hold_joint_volumes_of(h.deformer, measured, nullptr), "sd_deformer_hold_joint_volumes_of");
+    }
 
     // ---- frames -------------------------------------------------------------------------
     const std::string out_ext = lower_extension(o.output);

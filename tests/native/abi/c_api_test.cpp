@@ -257,6 +257,60 @@ TEST(CApi, InvalidPosesAreRefusedAndLeaveTheOutputAlone) {
     sd_binding_destroy(b);
 }
 
+TEST(CApi, HoldingTheJointsVolumeRefusesBadTrianglesAndChangesNothing) {
+    const AbiArm arm;
+    sd_binding* b = nullptr;
+    ASSERT_EQ(arm.bind(&b), SD_OK) << sd_last_error();
+    sd_deformer* d = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &d), SD_OK) << sd_last_error();
+    const int V = arm.vertex_count();
+    std::vector<float> bent = arm.rest, before(3 * V), after(3 * V);
+    bent[12 + 16] = 1.1f;  // move the forearm
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, before.data()), SD_OK);
+    const int32_t good[6] = {0, 1, 16, 1, 17, 16}, out_of_range[3] = {0, 1, V}, negative[3] = {0, -1, 2};
+    int32_t held = -1;
+    expect_error(sd_deformer_hold_joint_volumes(nullptr, V, 2, good, &held), SD_ERR_INVALID_ARGUMENT, "NULL deformer");
+    expect_error(sd_deformer_hold_joint_volumes(d, V, 2, nullptr, &held), SD_ERR_INVALID_ARGUMENT, "NULL triangles");
+    expect_error(sd_deformer_hold_joint_volumes(d, V + 1, 2, good, &held), SD_ERR_MISMATCH, "vertex count");
+    expect_error(sd_deformer_hold_joint_volumes(d, V, -2, good, &held), SD_ERR_INVALID_ARGUMENT, "negative count");
+    expect_error(sd_deformer_hold_joint_volumes(d, V, 1, out_of_range, &held), SD_ERR_INVALID_ARGUMENT,
+                 "corner out of range");
+    expect_error(sd_deformer_hold_joint_volumes(d, V, 1, negative, &held), SD_ERR_INVALID_ARGUMENT, "negative corner");
+    EXPECT_EQ(held, -1);
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, after.data()), SD_OK);
+    EXPECT_EQ(after, before);
+    // Valid triangles (a patch that loses nothing worth holding), then none: no joint held.
+    ASSERT_EQ(sd_deformer_hold_joint_volumes(d, V, 2, good, &held), SD_OK) << sd_last_error();
+    EXPECT_EQ(held, 0);
+    ASSERT_EQ(sd_deformer_hold_joint_volumes(d, V, 0, nullptr, nullptr), SD_OK) << sd_last_error();
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, after.data()), SD_OK);
+    EXPECT_EQ(after, before);
+    // Another deformer's tables: of the same rig only.
+    AbiArm other;
+    other.half_axes[0] = 0.12f;
+    sd_rig_destroy(other.rig);
+    ASSERT_EQ(
+        sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &other.rig),
+        SD_OK);
+    ASSERT_EQ(other.add_sweep(), SD_OK) << sd_last_error();
+    sd_binding* ob = nullptr;
+    ASSERT_EQ(other.bind(&ob), SD_OK) << sd_last_error();
+    sd_deformer* od = nullptr;
+    ASSERT_EQ(sd_deformer_create(other.rig, ob, &od), SD_OK) << sd_last_error();
+    expect_error(sd_deformer_hold_joint_volumes_of(d, od, &held), SD_ERR_MISMATCH, "another rig");
+    expect_error(sd_deformer_hold_joint_volumes_of(d, nullptr, &held), SD_ERR_INVALID_ARGUMENT, "NULL source");
+    sd_deformer* same = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &same), SD_OK);
+    held = -1;
+    EXPECT_EQ(sd_deformer_hold_joint_volumes_of(d, same, &held), SD_OK) << sd_last_error();
+    EXPECT_EQ(held, 0);
+    sd_deformer_destroy(same);
+    sd_deformer_destroy(od);
+    sd_binding_destroy(ob);
+    sd_deformer_destroy(d);
+    sd_binding_destroy(b);
+}
+
 // Blender's relative keys: reference + Σ value (key − its relative key), as displacements from
 // the rest, for the vertices they move.
 TEST(CApi, ShapeKeysMixAsBlenderMixesThem) {
