@@ -101,6 +101,32 @@ def test_finer_mesh_and_point_cloud_follow_the_character():
     assert worst_mean < 0.5e-3 * diag and worst_p99 < 2.5e-3 * diag, (worst_mean, worst_p99, diag)
 
 
+def test_a_copy_holds_the_joints_volume_as_its_source_and_says_so_without_it():
+    """A mesh bound through a character's map takes the character's measured joint volumes (the
+    same sweeps, also for a point cloud, which has no volume of its own); with the character gone
+    from the file it still deforms, and the panel says the volume at the joints is not held."""
+    char = helpers.load("fixture")
+    body = helpers.bind(char)
+    points = bpy.data.objects.new("Body_points", bpy.data.meshes.new("Body_points"))
+    points.data.from_pydata(helpers.base_positions(body).tolist(), [], [])
+    points.matrix_world = body.matrix_world
+    bpy.context.scene.collection.objects.link(points)
+    assert bind_selected_through(body, [points]) == {'FINISHED'}
+    frame("knee_bend")
+    cache = helpers.sub("blender.deformer_cache")
+    source, copy = cache.entry(body), cache.entry(points)
+    assert source.joints_held > 0 and copy.joints_held == source.joints_held and not copy.joint_volume_error
+    held, _ = helpers.evaluated_positions(points)
+    bpy.data.objects.remove(body)
+    cache.clear()
+    bpy.context.view_layer.update()
+    frame("knee_bend")
+    alone, _ = helpers.evaluated_positions(points)
+    copy = cache.entry(points)
+    assert copy.joints_held == 0 and "not held" in copy.joint_volume_error, copy.joint_volume_error
+    assert np.isfinite(alone).all() and not np.array_equal(alone, held)
+
+
 def test_both_opensubdivs_in_one_blender():
     """The map's OpenSubdiv (3.5, bundled) and Blender's own (3.6) live side by side: all of
     3.5's symbols are in the versioned namespace OpenSubdiv::v3_5_0, so neither binds to the

@@ -64,6 +64,8 @@ class Entry:
         self.anatomy_error = ""
         self.anatomy_stats = None
         self.triangles = None
+        self.joints_held = 0  # limb joints whose mesh volume is held (sd_deformer_hold_joint_volumes)
+        self.joint_volume_error = ""  # why it is not, shown in the panel
         try:
             rig, binding, names, rest_pose = persistence.load(obj)
             self.binding = binding  # kept for the anatomical effects (sd_anatomy_create)
@@ -85,7 +87,6 @@ class Entry:
             # The mesh's volume at the limb joints, measured once on the bound mesh (the core bends
             # each joint alone): 25 frames' time per joint, at every load. A mesh whose vertex
             # count changed since binding is refused further on, with its own message.
-            self.joints_held, self.joint_volume_error = 0, ""
             if len(obj.data.vertices) == self.deformer.vertex_count:
                 self.joints_held, self.joint_volume_error = _hold_joint_volumes(obj, self.deformer)
                 if self.joint_volume_error:  # the binding still deforms, without it
