@@ -14,8 +14,23 @@ bool finite(const dvec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) &&
 
 namespace {
 
+/// A bone's link: towards its only child's head when it has one child, else along the bone. A
+/// glTF rig has no tails, and importers point every bone one way whatever the limb does
+/// (CesiumMan's all point +x, its legs run down -z), which made a knee's bend read as a twist.
+/// For a Blender chain of connected bones it is the same direction.
 dvec3 link_axis(const Skeleton& skeleton, int bone) {
-    return glm::normalize(skeleton.tails[bone] - skeleton.heads[bone]);
+    int only = -1, children = 0;
+    for (int b = 0; b < skeleton.bone_count(); ++b)
+        if (skeleton.parents[b] == bone) {
+            only = b;
+            ++children;
+        }
+    const dvec3 along = skeleton.tails[bone] - skeleton.heads[bone];
+    if (children == 1) {
+        const dvec3 to_child = skeleton.heads[only] - skeleton.heads[bone];
+        if (glm::length(to_child) > 1e-6 * glm::length(along)) return glm::normalize(to_child);
+    }
+    return glm::normalize(along);
 }
 
 /// The joint of every key (see KeyJoint).

@@ -68,6 +68,34 @@ TEST(KeyEdit, EveryKeyHasAJointAndItsAngleIsTheBendBetweenTheLinks) {
     EXPECT_EQ(joint_angle(s.joints[3], pose), s.joints[3].rest_angle);
 }
 
+TEST(KeyEdit, JointAnglesFollowTheLimbWhicheverWayItsBonesPoint) {
+    // A glTF rig has no tails: importers point every bone one way (CesiumMan's all point +x,
+    // whatever its limbs do). The same arm with every bone pointing +z, the way the elbow bends
+    // about: the joint's angle is still the bend between the links (from head to head), so an
+    // edit made at a bent elbow applies there and not at rest.
+    const test::Arm straight;
+    Rig rig;
+    rig.skeleton = straight.rig.skeleton;
+    for (int b = 0; b < rig.skeleton.bone_count(); ++b)
+        rig.skeleton.tails[b] = rig.skeleton.heads[b] + dvec3(0, 0, 0.3);
+    rig.add_sweep(straight.rig.sweeps[0].keys);
+    const Sweep& s = rig.sweeps[0];
+    SkeletonPose pose;
+    pose.set(rig.skeleton, straight.pose(k150).data());
+    EXPECT_NEAR(s.joints[3].rest_angle, 0.0, 1e-12);
+    EXPECT_NEAR(joint_angle(s.joints[3], pose), k150, 1e-6);
+    EXPECT_NEAR(joint_angle(s.joints[1], pose), k150, 1e-6);  // the upper arm's keys: the elbow too
+    // The hand has no child: its link is along its bone (+z here, 90° off the forearm at rest);
+    // the wrist does not bend, and its angle stays its rest angle.
+    EXPECT_NEAR(joint_angle(s.joints[6], pose), s.joints[6].rest_angle, 1e-6);
+
+    const Binding binding = straight.bind();
+    Rig edited = rig;
+    edited.set_key_corrections(0, 3, {correction(k150, dvec3(0, 0.02, 0))});
+    EXPECT_EQ(deform(edited, binding, 0.0), deform(rig, binding, 0.0));  // rest: untouched
+    EXPECT_GT(max_distance(deform(edited, binding, k150), deform(rig, binding, k150)), 0.01);
+}
+
 TEST(KeyEdit, InterpolationPinsTheRestAndClampsBeyondTheSamples) {
     const std::vector<KeyCorrection> one = {correction(k150, dvec3(0.02, -0.01, 0.03), dvec3(0, 0.2, 0), 1.3, 0.8)};
     // Rest: exactly nothing. At the sample: exactly the sample. Beyond: the same.
