@@ -14,8 +14,9 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kSwingStep = kPi / 4.0;  // the table's bends: 45°, 90°, 135°
-// A raised target reaches the mesh in part (skin shared with the torso follows the leg's sweep
-// in part); the measured share is trusted within these bounds, else the joint is left alone.
+// Growth at the joint's keys reaches the mesh in part (skin shared with the torso follows the
+// leg's sweep in part); the measured share is trusted within these bounds, else the joint is
+// left alone.
 constexpr double kLeastGain = 0.2, kMostGain = 5.0;
 // At most this share of the sweep's rest volume is added: a larger loss is where the limb meets
 // the body (CesiumMan's arm lowered to 20° loses a quarter of the arm's volume at the armpit),
@@ -48,6 +49,14 @@ void bent_pose(const Skeleton& s, int child, const dquat& r, const dvec3& pivot,
 }
 
 }  // namespace
+
+VolumeControlKeys JointVolumeTable::keys(int key_count) const {
+    VolumeControlKeys k;
+    k.joints = {key};
+    for (int n : {key - 1, key + 1, key - 2, key + 2})
+        if (n >= 0 && n < key_count) k.neighbours.push_back(n);
+    return k;
+}
 
 void JointVolumeTable::swing(const SkeletonPose& pose, double* bend, double* direction) const {
     const dvec3 d = (glm::conjugate(pose.rotation[parent]) * pose.rotation[child]) * axis;
@@ -160,6 +169,7 @@ std::vector<JointVolumeTable> measure_joint_volumes(Deformer& deformer, int32_t 
             if (seen || !(glm::length(along) > 0.0)) continue;
             JointVolumeTable t;
             t.sweep = static_cast<int>(si);
+            t.key = k;
             t.parent = e.joint_parent;
             t.child = e.bone;
             t.axis = glm::normalize(along);
@@ -185,13 +195,15 @@ std::vector<JointVolumeTable> measure_joint_volumes(Deformer& deformer, int32_t 
             // How much of a raised target reaches the mesh here: once, where the most is lost.
             const size_t worst = static_cast<size_t>(std::max_element(lost.begin(), lost.end()) - lost.begin());
             if (!(lost[worst] > kLeastLost * s.rest_volume)) continue;  // nothing worth holding
+            // (A table that reads `probe` at every swing, grown where the final one will be.)
             const double probe = std::min(lost[worst], kMostAdded * s.rest_volume);
-            std::vector<double> raised = no_offsets;
-            raised[si] = -probe;
-            deformer.set_volume_offsets(raised);
+            JointVolumeTable probing = t;
+            probing.added.assign(lost.size(), probe);
+            probing.most_added = probe;
+            deformer.set_joint_volumes({probing});
             bent_pose(sk, e.bone, turns[worst], pivot, pose);
             deformer.deform(pose.data(), posed.data());
-            deformer.set_volume_offsets(no_offsets);
+            deformer.set_joint_volumes({});
             const double lost_raised = v_rest - sign * cone_volume(posed.data(), body, pivot);
             const double gain = (lost[worst] - lost_raised) / probe;
             if (!(gain >= kLeastGain)) continue;

@@ -9,12 +9,13 @@
 //
 // So once, on the bound mesh, each limb joint is bent alone through a grid of swings, and the
 // change of the mesh's volume within a ball about the joint is measured with the controller at
-// work. Each frame then raises the limb sweep's volume target by what that table says the mesh
-// loses at the joint's present swing, scaled by how much of a raised target reaches the mesh.
+// work. Each frame then grows the limb sweep's keys at the joint by what that table says the mesh
+// loses at the joint's present swing, scaled by how much of the growth reaches the mesh.
 #pragma once
 
 #include "math/math_types.h"
 #include "rig/skeleton.h"
+#include "rig/volume.h"
 
 #include <cstdint>
 #include <vector>
@@ -28,7 +29,8 @@ struct JointVolumeTable {
     static constexpr int kSwings = 3;      ///< bends of 45°, 90° and 135°
     static constexpr int kDirections = 8;  ///< every 45° about the rest axis
 
-    int sweep = -1, parent = -1, child = -1;        ///< the limb's sweep; the joint's upper and lower bones
+    int sweep = -1, key = -1;                       ///< the limb's sweep and the joint's key in it
+    int parent = -1, child = -1;                    ///< the joint's upper and lower bones
     dvec3 axis{0, 0, 1}, e1{1, 0, 0}, e2{0, 1, 0};  ///< the lower bone's rest direction, and two normals
     /// Volume the mesh loses, over the share of a raised target that reaches it: what to add to
     /// the sweep's target, [swing][direction]; 0 at no bend, held beyond 135°. Negative where
@@ -37,6 +39,8 @@ struct JointVolumeTable {
     std::vector<double> added;
     double most_added = 0.0;  ///< the reading's upper bound
 
+    /// The keys that take the added volume: the joint's key and its neighbours (of `key_count`).
+    VolumeControlKeys keys(int key_count) const;
     /// The lower bone's swing relative to the upper one in `pose`: bend angle and its direction.
     void swing(const SkeletonPose& pose, double* bend, double* direction) const;
     /// The table read at the joint's swing in `pose` (linear in the bend, a trigonometric
