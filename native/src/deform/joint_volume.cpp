@@ -162,10 +162,16 @@ std::vector<JointVolumeTable> measure_joint_volumes(Deformer& deformer, int32_t 
             const bool seen = std::any_of(tables.begin(), tables.end(), [&](const JointVolumeTable& t) {
                 return t.parent == e.joint_parent && t.child == e.bone;
             });
-            // The lower link's direction as the sweep runs there (not the bone's tail: bones
-            // imported from glTF all point one way, whatever the limb does).
-            const dvec3 along =
-                k + 1 < s.key_count() ? s.keys[k + 1].center - e.center : e.center - s.keys[k - 1].center;
+            // The lower link's direction: to the next joint's bone (a twist about the bone is then
+            // no bend: MakeHuman's neck twisted about its bone read 20° off the sweep's axis as
+            // a bend, and grew). At the sweep's end, as the sweep runs there: a glTF rig's last
+            // bones point any way (CesiumMan's head and feet +x).
+            int next = -1;
+            for (int j = k + 1; j < s.key_count() && next < 0; ++j)
+                if (s.keys[j].is_joint_key() && s.keys[j].joint_parent == e.bone) next = j;
+            dvec3 along = next >= 0 ? sk.heads[s.keys[next].bone] - sk.heads[e.bone] : dvec3(0.0);
+            if (!(glm::length(along) > 0.0))
+                along = k + 1 < s.key_count() ? s.keys[k + 1].center - e.center : e.center - s.keys[k - 1].center;
             if (seen || !(glm::length(along) > 0.0)) continue;
             JointVolumeTable t;
             t.sweep = static_cast<int>(si);
