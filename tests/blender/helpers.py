@@ -211,10 +211,11 @@ def base_positions(obj):
     return co.reshape(-1, 3)
 
 
-def core_result(obj, depsgraph=None, anatomy=False, corrections=False):
+def core_result(obj, depsgraph=None, anatomy=False, corrections=False, joint_volumes=True):
     """What the core computes for the evaluated pose, through the add-on's native module but
     not through its deformer cache: a fresh deformer from the stored blobs; with `anatomy`
-    sd_deform_with_anatomy with the object's effect settings; with `corrections` the
+    sd_deform_with_anatomy with the object's effect settings; without `joint_volumes` the
+    mesh's volume at the joints not held; with `corrections` the
     object's key-ellipse correction properties instead of those in the rig blob. Returns (expected mesh
     positions float32 as the add-on must produce them, the core's raw deformed positions
     mapped to mesh space in float64, the anatomy's stats or None)."""
@@ -235,7 +236,9 @@ def core_result(obj, depsgraph=None, anatomy=False, corrections=False):
     # (a mesh bound through another's map: on that source's).
     triangles = sub("blender.mesh_data").triangles
     source = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
-    if source:
+    if not joint_volumes:
+        pass
+    elif source:
         srig, sbinding, _, _ = persistence.load(bpy.data.objects[source])
         measured = native.Deformer(srig, sbinding)
         measured.hold_joint_volumes(triangles(bpy.data.objects[source].data))
