@@ -135,6 +135,16 @@ void correction_seeds() {
     write("fuzz_corrections", "elbow_two", o.b);
 }
 
+void joint_volume_seeds() {
+    // edits, (at, corner)*, fewer triangles, vertex count flag, then the pose as fuzz_deform.
+    Out plain, bent;
+    plain.put<uint8_t>(0).put<uint8_t>(0).put<uint8_t>(0);
+    bent.put<uint8_t>(0).put<uint8_t>(0).put<uint8_t>(0);
+    for (int i = 0; i < 48; ++i) bent.put<uint8_t>(0).put<int8_t>(i == 16 + 13 ? 20 : 0);
+    write("fuzz_joint_volumes", "rest", plain.b);
+    write("fuzz_joint_volumes", "bent", bent.b);
+}
+
 void anatomy_seeds() {
     // joints, per joint: 3 x (mode < 200, int8 / 64), bone, kind, effects, params, proxy flag;
     // feedback mode, restore, bend.
@@ -367,6 +377,7 @@ int main(int argc, char** argv) {
     rig_array_seeds(arm);
     correction_seeds();
     anatomy_seeds();
+    joint_volume_seeds();
     dmap_seeds();
     reader_seeds();
     return 0;

@@ -1,0 +1,43 @@
+// Holding the joints' volume on the arm's ring mesh with triangles from the input (corners
+// anywhere, fewer triangles, another vertex count), then a frame; and a second deformer of the
+// same rig taking the first one's tables: either an error that changes nothing, or finite frames,
+// the two deformers' bit for bit the same.
+#include "fuzz_fixture.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+    static const sdfuzz::Arm arm;
+    static sd_binding* binding = arm.bind();
+    static const std::vector<int32_t> rings = sdfuzz::Arm::ring_triangles();
+    sd_deformer *d = nullptr, *copy = nullptr;
+    if (sd_deformer_create(arm.rig, binding, &d) != SD_OK || sd_deformer_create(arm.rig, binding, &copy) != SD_OK)
+        __builtin_trap();
+    sdfuzz::Bytes in(data, size);
+    const int32_t V = sd_binding_vertex_count(binding);
+    std::vector<int32_t> tris = rings;
+    const int edits = in.take<uint8_t>() % 8;
+    for (int i = 0; i < edits; ++i) {
+        const size_t at = in.take<uint16_t>() % tris.size();  // (read in this order)
+        tris[at] = in.take<int32_t>();
+    }
+    const int32_t count = static_cast<int32_t>(tris.size() / 3) - in.take<uint8_t>() % 4;
+    const int32_t vertices = V + (in.take<uint8_t>() == 0xA5 ? 1 : 0);
+    int32_t held = -1;
+    if (sd_deformer_hold_joint_volumes(d, vertices, count, tris.data(), &held) == SD_OK && (held < 0 || held > 2))
+        __builtin_trap();
+    if (sd_deformer_hold_joint_volumes_of(copy, d, &held) != SD_OK) __builtin_trap();
+    float pose[48];
+    for (int i = 0; i < 48; ++i) {
+        const uint8_t mode = in.take<uint8_t>();
+        pose[i] = mode < 128 ? arm.rest[i] + in.take<int8_t>() / 32.0f : in.take<float>();
+    }
+    std::vector<float> out(3 * static_cast<size_t>(V)), again(out.size());
+    const sd_status a = sd_deform(d, 3, pose, V, out.data()), b = sd_deform(copy, 3, pose, V, again.data());
+    if (a != b) __builtin_trap();
+    if (a == SD_OK) {
+        sdfuzz::require_finite(out.data(), out.size());
+        if (out != again) __builtin_trap();
+    }
+    sd_deformer_destroy(copy);
+    sd_deformer_destroy(d);
+    return 0;
+}
