@@ -48,8 +48,9 @@ public:
     bool volume_enabled() const { return volume_enabled_; }
     double volume_strength() const { return volume_strength_; }
     const std::vector<double>& volume_offsets() const { return volume_offsets_; }
-    /// Each frame raises a limb sweep's target by what its joints' tables say the mesh near
-    /// them loses in the pose (joint_volume.h; none until given). @throws InvalidInput
+    /// Each frame, after the controller, grows a limb sweep's keys at each joint by what the
+    /// joint's table says the mesh loses in the pose (joint_volume.h; none until given).
+    /// @throws InvalidInput
     void set_joint_volumes(std::vector<JointVolumeTable> tables);
     const std::vector<JointVolumeTable>& joint_volumes() const { return joint_volumes_; }
     /// Replaces the key-ellipse corrections (Sect. 4.2) of the deformer's rig; the binding

@@ -198,7 +198,7 @@ std::vector<JointVolumeTable> measure_joint_volumes(Deformer& deformer, int32_t 
                     deformer.deform(pose.data(), posed.data());
                     lost[n] = v_rest - sign * cone_volume(posed.data(), body, pivot);
                 }
-            // How much of a raised target reaches the mesh here: once, where the most is lost.
+            // How much of a growth at the joint's keys reaches the mesh: once, where the most is lost.
             const size_t worst = static_cast<size_t>(std::max_element(lost.begin(), lost.end()) - lost.begin());
             if (!(lost[worst] > kLeastLost * s.rest_volume)) continue;  // nothing worth holding
             // (A table that reads `probe` at every swing, grown where the final one will be.)

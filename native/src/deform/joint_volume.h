@@ -8,9 +8,9 @@
 // it is not at a bend.
 //
 // So once, on the bound mesh, each limb joint is bent alone through a grid of swings, and the
-// change of the mesh's volume within a ball about the joint is measured with the controller at
-// work. Each frame then grows the limb sweep's keys at the joint by what that table says the mesh
-// loses at the joint's present swing, scaled by how much of the growth reaches the mesh.
+// change of the whole mesh's volume is measured with the controller at work. Each frame then
+// grows the limb sweep's keys at the joint by what that table says the mesh loses at the
+// joint's present swing, scaled by how much of the growth reaches the mesh.
 #pragma once
 
 #include "math/math_types.h"
@@ -24,16 +24,16 @@ namespace sd {
 
 class Deformer;
 
-/// What one joint's swing costs the mesh near it, and how much to add to its sweep's target.
+/// What one joint's swing costs the mesh, and how much volume to grow at the joint's keys.
 struct JointVolumeTable {
     static constexpr int kSwings = 3;      ///< bends of 45°, 90° and 135°
     static constexpr int kDirections = 8;  ///< every 45° about the rest axis
 
     int sweep = -1, key = -1;                       ///< the limb's sweep and the joint's key in it
     int parent = -1, child = -1;                    ///< the joint's upper and lower bones
-    dvec3 axis{0, 0, 1}, e1{1, 0, 0}, e2{0, 1, 0};  ///< the lower bone's rest direction, and two normals
-    /// Volume the mesh loses, over the share of a raised target that reaches it: what to add to
-    /// the sweep's target, [swing][direction]; 0 at no bend, held beyond 135°. Negative where
+    dvec3 axis{0, 0, 1}, e1{1, 0, 0}, e2{0, 1, 0};  ///< the lower link's rest direction, and two normals
+    /// Volume the mesh loses, over the share of a growth at the joint's keys that reaches it:
+    /// what to grow there, [swing][direction]; 0 at no bend, held beyond 135°. Negative where
     /// the mesh gains: read between samples as is, then nothing is taken away (see
     /// added_volume).
     std::vector<double> added;
@@ -44,9 +44,9 @@ struct JointVolumeTable {
     /// The lower bone's swing relative to the upper one in `pose`: bend angle and its direction.
     void swing(const SkeletonPose& pose, double* bend, double* direction) const;
     /// The table read at the joint's swing in `pose` (linear in the bend, a trigonometric
-    /// polynomial around the axis),
-    /// and never below 0: a gain is left alone (a fold passing through itself counts twice in a
-    /// signed volume, and shrinking a limb to make up for it would thin it).
+    /// polynomial around the axis), within [0, most_added]: a gain is left alone (a fold passing
+    /// through itself counts twice in a signed volume, and shrinking a limb to make up for it
+    /// would thin it).
     double added_volume(const SkeletonPose& pose) const;
 };
 
@@ -56,7 +56,7 @@ struct JointVolumeTable {
 double cone_volume(const float* positions, const std::vector<int32_t>& triangles, const dvec3& apex);
 
 /// Bends each limb joint of the deformer's rig (keys with a joint, sweeps that are not thick
-/// chains) alone and measures the mesh near it (triangles #T*3, indices into the bound
+/// chains) alone and measures the whole mesh (triangles #T*3, indices into the bound
 /// vertices). Leaves the deformer's settings as they were. @throws InvalidInput on bad triangles.
 std::vector<JointVolumeTable> measure_joint_volumes(Deformer& deformer, int32_t triangle_count,
                                                     const int32_t* triangles);
