@@ -177,10 +177,10 @@ SD_API sd_status sd_deformer_set_volume_preservation(sd_deformer* deformer, int3
 SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t sweep_count, const float* offsets);
 /*
  * Holds the mesh's volume near each limb joint (docs/math.md, "The mesh's volume at the
- * joints"): bends every limb joint of the rig alone through a grid of swings, measures the
- * volume of the bound mesh near the joint (triangles #T*3, indices into the binding's
- * vertices), and from then on raises the limb sweep's volume target each frame by what the
- * mesh loses at the joint's swing. Takes 25 frames' time per joint. Calling it again measures
+ * limb joints"): bends every limb joint of the rig alone through a grid of swings, measures
+ * the volume of the bound mesh (triangles #T*3, indices into the binding's vertices), and
+ * from then on, each frame, grows the limb sweep's keys at the joint by what the mesh loses
+ * at the joint's swing. Takes 25 frames' time per joint. Calling it again measures
  * anew (after an edit of the key ellipses); triangle_count 0 stops it. out_joint_count (may
  * be NULL): the joints held. On error nothing changes.
  */
