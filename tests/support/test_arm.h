@@ -64,6 +64,19 @@ struct Arm {
     }
     int vertex_count() const { return static_cast<int>(mesh.size() / 3); }
 
+    /// Two triangles per quad between consecutive rings, counter-clockwise seen from outside
+    /// (an open tube).
+    std::vector<int32_t> ring_triangles() const {
+        std::vector<int32_t> t;
+        const int n = ring_size;
+        for (int r = 0; r + 1 < rings; ++r)
+            for (int s = 0; s < n; ++s) {
+                const int a = r * n + s, b = r * n + (s + 1) % n, c = (r + 1) * n + (s + 1) % n, d = (r + 1) * n + s;
+                t.insert(t.end(), {a, b, c, a, c, d});
+            }
+        return t;
+    }
+
     Binding bind() const {
         const int V = vertex_count();
         std::vector<int32_t> ids(V, 0);

@@ -15,6 +15,7 @@
 #include "fit/fit_rig.h"
 #include "deform/linear_blend_skinning.h"
 #include "test_arm.h"
+#include "turned_pose.h"
 
 #include "sweepdeform/sweepdeform.h"
 
@@ -331,17 +332,7 @@ std::vector<float> flex_pose(const Skeleton& sk, int upper, int lower, const dve
     const dvec3 axis = glm::cross(u, f);
     const dvec3 l = glm::normalize(sk.tails[lower] - sk.heads[lower]);
     const double rest = std::atan2(glm::dot(l, f), glm::dot(l, u));
-    const dmat4 turn = glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), flexion - rest, axis) *
-                       glm::translate(dmat4(1.0), -joint);
-    std::vector<float> pose;
-    for (int b = 0; b < sk.bone_count(); ++b) {
-        bool below = false;
-        for (int x = b; x >= 0 && !below; x = sk.parents[x]) below = x == lower;
-        const dmat4 m = below ? turn * sk.rest[b] : sk.rest[b];
-        for (int c = 0; c < 4; ++c)
-            for (int r = 0; r < 4; ++r) pose.push_back(static_cast<float>(m[c][r]));
-    }
-    return pose;
+    return testing::turned_pose(sk, lower, testing::turn_about(joint, axis, flexion - rest));
 }
 
 /// The pairs of `pairs` with both triangles in `region` (sorted ids).
@@ -355,18 +346,6 @@ size_t pairs_within(const std::vector<TrianglePair>& pairs, const std::vector<in
 
 // ---- the synthetic arm ------------------------------------------------------------------
 
-/// Two triangles per quad between consecutive rings, counter-clockwise seen from outside.
-std::vector<int32_t> ring_triangles(const test::Arm& arm) {
-    std::vector<int32_t> t;
-    const int n = arm.ring_size;
-    for (int r = 0; r + 1 < arm.rings; ++r)
-        for (int s = 0; s < n; ++s) {
-            const int a = r * n + s, b = r * n + (s + 1) % n, c = (r + 1) * n + (s + 1) % n, d = (r + 1) * n + s;
-            t.insert(t.end(), {a, b, c, a, c, d});
-        }
-    return t;
-}
-
 /// The arm's sweeps with the anatomical effects at its elbow (folding towards the front, +y).
 struct ArmWithElbowEffects {
     Binding binding;
@@ -376,7 +355,7 @@ struct ArmWithElbowEffects {
 
     explicit ArmWithElbowEffects(const test::Arm& arm)
         : binding(arm.bind()),
-          triangles(ring_triangles(arm)),
+          triangles(arm.ring_triangles()),
           anatomy(arm.rig, binding, triangles.data(), static_cast<int>(triangles.size() / 3)),
           deformer(arm.rig, binding) {
         const dvec3 front(0, 1, 0);
@@ -423,7 +402,7 @@ TEST(Anatomy, TheRestMeshsOwnIntersectionsAreLeftAsTheyAre) {
 TEST(Anatomy, BentTubeIntersectsWithSweepsAndLinearBlendSkinningButNotAfterFolding) {
     const test::Arm arm;
     const Binding binding = arm.bind();
-    const std::vector<int32_t> tris = ring_triangles(arm);
+    const std::vector<int32_t> tris = arm.ring_triangles();
     const int T = static_cast<int>(tris.size() / 3), V = arm.vertex_count();
     const MeshTopology mesh = MeshTopology::build(V, tris.data(), T, arm.mesh.data());
     std::vector<int32_t> all(T);
@@ -823,7 +802,7 @@ INSTANTIATE_TEST_SUITE_P(Humans, AnatomyCharacter,
 /// The synthetic arm through the public header.
 struct AbiArm {
     test::Arm arm;
-    std::vector<int32_t> tris = ring_triangles(arm);
+    std::vector<int32_t> tris = arm.ring_triangles();
     sd_rig* rig = nullptr;
     sd_binding* binding = nullptr;
     sd_deformer* deformer = nullptr;

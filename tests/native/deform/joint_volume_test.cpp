@@ -6,11 +6,11 @@
 #include "deform/deform.h"
 #include "fit/fit_rig.h"
 #include "test_arm.h"
+#include "turned_pose.h"
 
 #include <sweepdeform_io/animation.h>
 #include <sweepdeform_io/gltf_loader.h>
 
-#include <glm/gtc/matrix_transform.hpp>
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -62,15 +62,8 @@ JointVolumeTable numbered_elbow() {
 // The table read with the forearm bent by `bend` towards direction `direction` (about +x).
 double read_at(const JointVolumeTable& t, const test::Arm& arm, double bend, double direction = 0.0) {
     const dvec3 elbow(1, 0, 0), towards(0, std::cos(direction), std::sin(direction));
-    const dmat4 m = glm::translate(dmat4(1.0), elbow) *
-                    glm::rotate(dmat4(1.0), bend, glm::cross(dvec3(1, 0, 0), towards)) *
-                    glm::translate(dmat4(1.0), -elbow);
-    std::vector<float> pose;
-    for (int b = 0; b < 3; ++b) {
-        const dmat4 p = (b == 0 ? dmat4(1.0) : m) * arm.rig.skeleton.rest[b];
-        for (int c = 0; c < 4; ++c)
-            for (int r = 0; r < 4; ++r) pose.push_back(static_cast<float>(p[c][r]));
-    }
+    const std::vector<float> pose = testing::turned_pose(
+        arm.rig.skeleton, 1, testing::turn_about(elbow, glm::cross(dvec3(1, 0, 0), towards), bend));
     SkeletonPose sp;
     sp.set(arm.rig.skeleton, pose.data());
     return t.added_volume(sp);
@@ -120,17 +113,6 @@ TEST(JointVolume, TablesNameTheRigsSweepsAndBones) {
 namespace sd {
 namespace {
 
-std::vector<int32_t> tube_triangles(const test::Arm& arm) {
-    std::vector<int32_t> t;
-    const int n = arm.ring_size;
-    for (int r = 0; r + 1 < arm.rings; ++r)
-        for (int s = 0; s < n; ++s) {
-            const int a = r * n + s, b = r * n + (s + 1) % n, c = (r + 1) * n + (s + 1) % n, d = (r + 1) * n + s;
-            t.insert(t.end(), {a, b, c, a, c, d});
-        }
-    return t;
-}
-
 TEST(JointVolume, AnArmWhoseMeshKeepsItsVolumeGetsNoTable) {
     // The synthetic arm's skin lies on its sweep, whose integral the controller holds: bent,
     // its open tube (cone volume from the elbow: the ends stay put or turn about it) changes
@@ -138,7 +120,7 @@ TEST(JointVolume, AnArmWhoseMeshKeepsItsVolumeGetsNoTable) {
     // 135°), which is not worth holding. No joint gets a table, and every pose deforms as before.
     const test::Arm arm;
     Deformer d(arm.rig, arm.bind());
-    const std::vector<int32_t> tris = tube_triangles(arm);
+    const std::vector<int32_t> tris = arm.ring_triangles();
     const double v0 = cone_volume(arm.mesh.data(), tris, dvec3(1, 0, 0));
     std::vector<float> before(arm.mesh.size()), after(arm.mesh.size());
     d.deform(arm.pose(0.6 * kPi).data(), before.data());
@@ -196,17 +178,7 @@ TEST(JointVolume, TheMakeHumanBodyKeepsItsVolumeWhenTheHipFlexes) {
     // Flexion (the knee forwards) about an axis turned by `tilt` (> 0: the knee goes outwards).
     const auto flexed = [&](double tilt) {
         const dvec3 axis = glm::normalize(-std::cos(tilt) * left + std::sin(tilt) * front);
-        const dmat4 turn = glm::translate(dmat4(1.0), hip) * glm::rotate(dmat4(1.0), 70.0 * kPi / 180.0, axis) *
-                           glm::translate(dmat4(1.0), -hip);
-        std::vector<float> pose = rest_pose;
-        for (int b = 0; b < s.bone_count(); ++b) {
-            bool below = false;
-            for (int x = b; x >= 0 && !below; x = s.parents[x]) below = x == thigh;
-            if (!below) continue;
-            const dmat4 p = turn * s.rest[b];
-            for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(p[i / 4][i % 4]);
-        }
-        return pose;
+        return testing::turned_pose(s, thigh, testing::turn_about(hip, axis, 70.0 * kPi / 180.0));
     };
     const double v0 = cone_volume(c.positions.data(), c.triangles, hip);
     std::vector<float> out(c.positions.size());

@@ -5,6 +5,7 @@
 // fitting + binding the refined 80K-vertex MakeHuman.
 #include "character_fit.h"
 #include "point_metrics.h"
+#include "turned_pose.h"
 #include "bind/bind.h"
 #include "deform/deform.h"
 #include "geometry/cross_section.h"
@@ -574,19 +575,8 @@ int bone_index(const io::Character& c, const std::string& name) {
 
 /// Posed bone matrices with the subtree of `bone` turned by `angle` about `axis` through
 /// the bone's head.
-std::vector<float> bend_pose(const io::Character& c, const Skeleton& s, int bone, const dvec3& axis, double angle) {
-    const dvec3 joint = s.heads[bone];
-    const dmat4 turn =
-        glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), angle, axis) * glm::translate(dmat4(1.0), -joint);
-    std::vector<float> pose = io::rest_pose(c);
-    for (int b = 0; b < s.bone_count(); ++b) {
-        bool below = false;
-        for (int x = b; x >= 0 && !below; x = s.parents[x]) below = x == bone;
-        if (!below) continue;
-        const dmat4 p = turn * s.rest[b];
-        for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(p[i / 4][i % 4]);
-    }
-    return pose;
+std::vector<float> bend_pose(const Skeleton& s, int bone, const dvec3& axis, double angle) {
+    return testing::turned_pose(s, bone, testing::turn_about(s.heads[bone], axis, angle));
 }
 
 /// Fits `c`, then checks its chains against `cc`, coverage, the rest round trip, the elbow
@@ -669,7 +659,7 @@ void check_character(const io::Character& c, const CharacterCase& cc, const std:
         const dvec3 cr = glm::cross(u, f);
         // Flex: turn the lower link away from the upper one (a knee about the body's left axis).
         const dvec3 axis = lower == cc.knee_l || glm::length(cr) < 0.2 ? left : glm::normalize(cr);
-        const auto pose = bend_pose(c, s, bone, axis, M_PI / 2);
+        const auto pose = bend_pose(s, bone, axis, M_PI / 2);
         d.deform(pose.data(), out.data());
         const dvec3 joint = s.heads[bone];
         const dmat4 turn = glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), M_PI / 2, axis) *
@@ -753,7 +743,7 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
         const dvec3 target = glm::normalize(dvec3(d.x, 0.0, 0.0));  // straight out sideways
         const dvec3 axis = glm::normalize(glm::cross(d, target));
         const double angle = std::acos(std::clamp(glm::dot(d, target), -1.0, 1.0));
-        const auto raised = bend_pose(t, s, bone, axis, angle);
+        const auto raised = bend_pose(s, bone, axis, angle);
         for (int b = 0; b < s.bone_count(); ++b)
             for (int x = b; x >= 0; x = s.parents[x])
                 if (x == bone) {
@@ -945,7 +935,7 @@ TEST(FitSeams, SplitVerticesMoveTogether) {
     ASSERT_GE(thigh, 0);
     const dvec3 left = r.chains.frame.left;
     std::vector<float> out(c.positions.size());
-    d.deform(bend_pose(c, s, thigh, left, glm::radians(90.0)).data(), out.data());
+    d.deform(bend_pose(s, thigh, left, glm::radians(90.0)).data(), out.data());
     // Copies: vertices at bit-identical rest positions.
     std::map<std::tuple<float, float, float>, int> first;
     int pairs = 0;
