@@ -88,7 +88,9 @@ class Entry:
             # each joint alone): 25 frames' time per joint, at every load. A mesh whose vertex
             # count changed since binding is refused further on, with its own message.
             if len(obj.data.vertices) == self.deformer.vertex_count:
-                self.joints_held, self.joint_volume_error = _hold_joint_volumes(obj, self.deformer)
+                self.triangles = mesh_data.triangles(obj.data)  # kept for the anatomical effects
+                self.joints_held, self.joint_volume_error = _hold_joint_volumes(obj, self.deformer,
+                                                                                self.triangles)
                 if self.joint_volume_error:  # the binding still deforms, without it
                     print(f"Sweep Deform: '{obj.name}': {self.joint_volume_error}")
             self.pose = np.empty(16 * self.deformer.bone_count, np.float32)
@@ -222,9 +224,9 @@ class Entry:
         return self.deformer.volumes()
 
 
-def _hold_joint_volumes(obj, deformer):
+def _hold_joint_volumes(obj, deformer, triangles):
     """Holds the mesh's volume at the limb joints (sd_deformer_hold_joint_volumes), measured on
-    the object's triangles; for a mesh bound through another's map, the source's tables, so that
+    the object's `triangles`; for a mesh bound through another's map, the source's tables, so that
     both follow the same sweeps (a point cloud has no volume of its own). Returns (joints held,
     why not or "")."""
     source_name = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
@@ -236,7 +238,7 @@ def _hold_joint_volumes(obj, deformer):
                 return 0, (f"the volume at the joints is not held: '{source_name}', whose map it was bound "
                            "through, is not a bound mesh in this file")
             return deformer.hold_joint_volumes_of(src.deformer), ""
-        return deformer.hold_joint_volumes(mesh_data.triangles(obj.data)), ""
+        return deformer.hold_joint_volumes(triangles), ""
     except (native.NativeError, ValueError) as e:
         return 0, f"the volume at the joints is not held: {e}"
 

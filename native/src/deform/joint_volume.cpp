@@ -183,8 +183,9 @@ std::vector<JointVolumeTable> measure_joint_volumes(Deformer& deformer, int32_t 
             t.e2 = glm::cross(t.axis, t.e1);
             const dvec3 pivot = sk.heads[e.bone];
             // (A mesh mirrored in its data is wound the other way: its volumes come out negative.)
-            const double sign = cone_volume(rest.data(), body, pivot) < 0.0 ? -1.0 : 1.0;
-            const double v_rest = sign * cone_volume(rest.data(), body, pivot);
+            const double signed_rest = cone_volume(rest.data(), body, pivot);
+            const double sign = signed_rest < 0.0 ? -1.0 : 1.0;
+            const double v_rest = sign * signed_rest;
 
             std::vector<double> lost(JointVolumeTable::kSwings * JointVolumeTable::kDirections);
             std::vector<dquat> turns(lost.size());

@@ -666,7 +666,10 @@ int run(const Options& o) {
           "sd_deformer_set_volume_preservation");
     // The mesh's volume at the limb joints, as the extension holds it: measured on the
     // character's own triangles, also for points bound through its map (they follow its sweeps).
-    {
+    if (deformed_binding == h.binding) {
+        check(sd_deformer_hold_joint_volumes(h.deformer, V, T, c.triangles.data(), nullptr),
+              "sd_deformer_hold_joint_volumes");
+    } else {
         sd_deformer* measured = nullptr;
         check(sd_deformer_create(h.rig, h.binding, &measured), "sd_deformer_create");
         struct DeformerGuard {
