@@ -236,14 +236,12 @@ def core_result(obj, depsgraph=None, anatomy=False, corrections=False, joint_vol
     # (a mesh bound through another's map: on that source's).
     triangles = sub("blender.mesh_data").triangles
     source = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
-    if not joint_volumes:
-        pass
-    elif source:
+    if joint_volumes and source:
         srig, sbinding, _, _ = persistence.load(bpy.data.objects[source])
         measured = native.Deformer(srig, sbinding)
         measured.hold_joint_volumes(triangles(bpy.data.objects[source].data))
         d.hold_joint_volumes_of(measured)
-    else:
+    elif joint_volumes:
         d.hold_joint_volumes(triangles(obj.data))
     if corrections:
         d.set_rig_corrections(*corrections_module.correction_arrays(s))
