@@ -181,10 +181,20 @@ PartShares shares_from_sweeps(const FitMesh& mesh, const Rig& rig, const BoneOwn
 }
 
 void smooth_rows(const FitMesh& mesh, int width, std::vector<float>& values, const std::vector<char>& active,
-                 int iterations, float lambda) {
+                 int iterations, float lambda, double reach) {
     const int V = mesh.vertex_count();
     const auto& off = mesh.ring_offsets();
     const auto& ring = mesh.ring();
+    const auto& pos = mesh.positions();
+    std::vector<float> step(V, lambda);
+    if (reach > 0.0)
+        tbb::parallel_for(0, V, [&](int v) {
+            double sum = 0.0;
+            int n = 0;
+            for (int i = off[v]; i < off[v + 1]; ++i, ++n) sum += glm::length(pos[ring[i]] - pos[v]);
+            const double edge = n > 0 ? sum / n : 0.0;
+            if (edge > reach) step[v] = static_cast<float>(lambda * (reach / edge) * (reach / edge));
+        });
     std::vector<float> next = values;
     for (int it = 0; it < iterations; ++it) {
         tbb::parallel_for(0, V, [&](int v) {
@@ -194,11 +204,12 @@ void smooth_rows(const FitMesh& mesh, int width, std::vector<float>& values, con
             int n = 0;
             for (int i = off[v]; i < off[v + 1]; ++i) n += active[ring[i]] ? 1 : 0;
             if (n == 0) return;
+            const float l = step[v];
             for (int c = 0; c < width; ++c) {
                 float sum = 0.0f;
                 for (int i = off[v]; i < off[v + 1]; ++i)
                     if (active[ring[i]]) sum += values[static_cast<size_t>(ring[i]) * width + c];
-                out[c] = (1.0f - lambda) * own[c] + lambda * sum / static_cast<float>(n);
+                out[c] = (1.0f - l) * own[c] + l * sum / static_cast<float>(n);
             }
         });
         values.swap(next);
@@ -264,7 +275,8 @@ RegionWeights weights_from_skin(const FitMesh& mesh, const Skeleton& s, const Bo
         active[v] = chains_sum > 0.0f;
         for (int c = 0; c < C && chains_sum > 0.0f; ++c) row[c] /= chains_sum;
     }
-    smooth_rows(mesh, C, split, active, opt.smoothing_iterations, opt.smoothing_step);
+    smooth_rows(mesh, C, split, active, opt.smoothing_iterations, opt.smoothing_step,
+                kSmoothingReachOfDiagonal * mesh.diagonal());
 
     tbb::parallel_for(0, V, [&](int v) {
         std::vector<std::pair<float, int>> entries;
@@ -355,7 +367,8 @@ RegionWeights weights_from_geometry(const FitMesh& mesh, const Rig& rig, const C
             blend(sweep.keys.front(), ch.parent_chain, c, -1);
         if (ch.end_bone >= 0 && rigid_bone[ch.end_bone]) blend(sweep.keys.back(), c, C, ch.end_bone);
     }
-    smooth_rows(mesh, W, part, std::vector<char>(V, 1), opt.smoothing_iterations, opt.smoothing_step);
+    smooth_rows(mesh, W, part, std::vector<char>(V, 1), opt.smoothing_iterations, opt.smoothing_step,
+                kSmoothingReachOfDiagonal * mesh.diagonal());
 
     // Vertices that smoothing gave some rigid weight without a rigid bone of their own take
     // the nearest rigid bone.
