@@ -42,10 +42,9 @@ PartShares shares_from_sweeps(const FitMesh& mesh, const Rig& rig, const BoneOwn
 /// rows of `values` (#V*width) over the vertices with active[v] != 0 (others stay and are
 /// not used as neighbours). Parallel; the result does not depend on the thread count.
 /// `reach` > 0 bounds how far the passes carry a value as a length (the mesh's unit), not a
-/// number of rings: a
-/// vertex whose one-ring edges are longer on average than `reach` takes the step
-/// lambda (reach / edge)^2, so the spread (about sqrt(passes × step) edges) stays near
-/// what it is on a mesh with edges of that length.
+/// number of rings: a vertex whose one-ring edges are longer on average than `reach` takes
+/// the step lambda (reach / edge)^2, so the spread (about sqrt(passes × step) edges) stays
+/// near what it is on a mesh with edges of that length.
 void smooth_rows(const FitMesh& mesh, int width, std::vector<float>& values, const std::vector<char>& active,
                  int iterations, float lambda, double reach = 0.0);
 
