@@ -4,6 +4,7 @@
 // puts it, and the trunk's skin stays smooth (no fold where arm-bound skin swings up while
 // the skin above stays with the torso).
 #include "character_fit.h"
+#include "dihedral.h"
 #include "bind/bind.h"
 #include "deform/deform.h"
 #include "fit/fit_rig.h"
@@ -64,40 +65,6 @@ struct Figures {
     double band_dihedral = 0.0, band_dihedral_lbs = 0.0;  ///< the same where the arm weighs < 0.5
     int64_t shoulder_pairs = 0, shoulder_pairs_lbs = 0;   ///< intersecting triangle pairs
 };
-
-/// Dihedral angle change of every interior edge whose four vertices are all in `mask`.
-double max_dihedral_change(const io::Character& c, const std::vector<float>& pos, const std::vector<char>& mask) {
-    std::map<std::pair<int, int>, std::vector<int>> edge_tris;
-    const int T = static_cast<int>(c.triangles.size() / 3);
-    for (int t = 0; t < T; ++t)
-        for (int i = 0; i < 3; ++i) {
-            int a = c.triangles[3 * t + i], b = c.triangles[3 * t + (i + 1) % 3];
-            if (a > b) std::swap(a, b);
-            edge_tris[{a, b}].push_back(t);
-        }
-    const auto P = [](const std::vector<float>& p, int v) { return dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); };
-    const auto normal = [&](const std::vector<float>& p, int t) {
-        const dvec3 n = glm::cross(P(p, c.triangles[3 * t + 1]) - P(p, c.triangles[3 * t]),
-                                   P(p, c.triangles[3 * t + 2]) - P(p, c.triangles[3 * t]));
-        const double l = glm::length(n);
-        return l > 0.0 ? n / l : n;
-    };
-    const auto angle = [](const dvec3& u, const dvec3& v) {
-        return std::atan2(glm::length(glm::cross(u, v)), glm::dot(u, v));
-    };
-    double worst = 0.0;
-    for (const auto& [e, tris] : edge_tris) {
-        if (tris.size() != 2) continue;
-        bool in = true;
-        for (int t : tris)
-            for (int i = 0; i < 3; ++i) in = in && mask[c.triangles[3 * t + i]];
-        if (!in) continue;
-        const double rest = angle(normal(c.positions, tris[0]), normal(c.positions, tris[1]));
-        const double posed = angle(normal(pos, tris[0]), normal(pos, tris[1]));
-        worst = std::max(worst, std::abs(posed - rest));
-    }
-    return worst;
-}
 
 void write_obj(const std::string& path, const io::Character& c, const std::vector<float>& pos) {
     std::FILE* f = std::fopen(path.c_str(), "w");
@@ -172,10 +139,10 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
         f.trunk_mean += e;
     }
     f.trunk_mean /= std::max(1, f.trunk);
-    f.dihedral_max = max_dihedral_change(c, out, trunk);
-    f.dihedral_lbs = max_dihedral_change(c, lbs, trunk);
-    f.band_dihedral = max_dihedral_change(c, out, band);
-    f.band_dihedral_lbs = max_dihedral_change(c, lbs, band);
+    f.dihedral_max = testing::max_dihedral_change(c, out, trunk);
+    f.dihedral_lbs = testing::max_dihedral_change(c, lbs, trunk);
+    f.band_dihedral = testing::max_dihedral_change(c, out, band);
+    f.band_dihedral_lbs = testing::max_dihedral_change(c, lbs, band);
     // Intersecting triangle pairs near the shoulder joints (as the demo counts them).
     std::vector<int32_t> near;
     const int T = static_cast<int>(c.triangles.size() / 3);
