@@ -4,9 +4,12 @@
 #pragma once
 
 #include "bind/bind.h"
+#include "deform/linear_blend_skinning.h"
 #include "fit/fit_rig.h"
 
 #include <sweepdeform_io/character.h>
+
+#include <string>
 
 namespace sd::character_fit {
 
@@ -41,6 +44,22 @@ inline Binding bind_fitted(const fit::FitResult& f, int vertex_count, const floa
 /// Binds the character with the fitted rig and region weights.
 inline Binding bind_fitted(const io::Character& c, const fit::FitResult& f) {
     return bind_fitted(f, static_cast<int>(c.positions.size() / 3), c.positions.data());
+}
+
+/// The index of the bone called `name`, -1 if the character has none.
+inline int bone_named(const io::Character& c, const std::string& name) {
+    for (size_t b = 0; b < c.bone_names.size(); ++b)
+        if (c.bone_names[b] == name) return static_cast<int>(b);
+    return -1;
+}
+
+/// The character's own linear blend skinning (its 4 weights a vertex) in `pose` (#B*16
+/// posed matrices of `s`): the positions into `out` (#V*3).
+inline void skin_linearly(const io::Character& c, const Skeleton& s, const float* pose, float* out) {
+    SkeletonPose sp;
+    sp.set(s, pose);
+    skin_linear_blend4(bone_affines(sp), static_cast<int>(c.positions.size() / 3), c.positions.data(),
+                       c.skin_joints.data(), c.skin_weights.data(), out);
 }
 
 }  // namespace sd::character_fit

@@ -4,6 +4,7 @@
 // test_arm.h bent to 150 degrees (sweeps and linear blend skinning intersect, folding
 // leaves none, the volume stays); then the characters of ../shared/data, fitted
 // automatically, at elbow flexion 90/120/150 and knee flexion 90/135; and the C ABI.
+#include "character_fit.h"
 #include "anatomy/anatomy.h"
 #include "geometry/bvh.h"
 #include "geometry/cross_section.h"
@@ -652,10 +653,7 @@ TEST_P(AnatomyCharacter, FoldsVolumeAndProtrusionAtElbowAndKneeFlexion) {
         Deformer plain_d(rig, h.binding);
         std::vector<float> plain(3 * V), lbs(3 * V), out(3 * V);
         plain_d.deform(pose.data(), plain.data());
-        SkeletonPose sp;
-        sp.set(rig.skeleton, pose.data());
-        skin_linear_blend4(bone_affines(sp), V, h.c.positions.data(), h.c.skin_joints.data(), h.c.skin_weights.data(),
-                           lbs.data());
+        character_fit::skin_linearly(h.c, rig.skeleton, pose.data(), lbs.data());
         std::vector<TrianglePair> pairs;
         brute_force_pairs(mesh, region, plain.data(), pairs);
         const size_t sweep_pairs = pairs.size();

@@ -149,12 +149,6 @@ TEST(JointVolume, BadTrianglesAreRefusedAndChangeNothing) {
 namespace sd {
 namespace {
 
-int bone_named(const io::Character& c, const std::string& name) {
-    for (size_t b = 0; b < c.bone_names.size(); ++b)
-        if (c.bone_names[b] == name) return static_cast<int>(b);
-    return -1;
-}
-
 TEST(JointVolume, TheMakeHumanBodyKeepsItsVolumeWhenTheHipFlexes) {
     // The product's fitting and binding on the CC0 MakeHuman male (13.4K vertices), the thigh
     // flexed 70° (between the table's rows) about axes turned off the body's side axis
@@ -168,7 +162,8 @@ TEST(JointVolume, TheMakeHumanBodyKeepsItsVolumeWhenTheHipFlexes) {
     const int V = static_cast<int>(c.positions.size() / 3);
     Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
 
-    const int thigh = bone_named(c, "thigh_l"), thigh_r = bone_named(c, "thigh_r"), head = bone_named(c, "head");
+    const int thigh = character_fit::bone_named(c, "thigh_l"), thigh_r = character_fit::bone_named(c, "thigh_r"),
+              head = character_fit::bone_named(c, "head");
     ASSERT_TRUE(thigh >= 0 && thigh_r >= 0 && head >= 0);
     const dvec3 left = glm::normalize(s.heads[thigh] - s.heads[thigh_r]);
     const dvec3 up = glm::normalize(s.heads[head] - s.heads[thigh]);
@@ -201,7 +196,7 @@ TEST(JointVolume, TheMakeHumanBodyKeepsItsVolumeWhenTheHipFlexes) {
     after[1] = lost(flexed(tilts[1]));
     after[0] = lost(flexed(tilts[0]));  // (last: `out` holds it)
     // Where the volume goes: at the hip, not down the thigh at the knee.
-    const int calf = bone_named(c, "calf_l");
+    const int calf = character_fit::bone_named(c, "calf_l");
     ASSERT_GE(calf, 0);
     double at_hip = 0.0, at_knee = 0.0;
     for (int v = 0; v < V; ++v) {

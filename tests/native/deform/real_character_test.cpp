@@ -1,8 +1,8 @@
 // The core on real characters from ../shared/data, with key ellipses simply sitting on the
 // bones (automatic fitting is tested in fit_test.cpp).
+#include "character_fit.h"
 #include "bone_rig.h"
 #include "deform/deform.h"
-#include "deform/linear_blend_skinning.h"
 #include "point_metrics.h"
 
 #include <sweepdeform_io/animation.h>
@@ -56,10 +56,7 @@ TEST_P(RealCharacter, RestPoseRoundTripAndPlausibleMotion) {
         for (double t : {0.5, 2.0, 4.0}) {
             const auto pose = io::sample_pose(a, static_cast<int>(clip), t);
             d.deform(pose.data(), out.data());
-            SkeletonPose sp;
-            sp.set(rig.rig.skeleton, pose.data());
-            skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
-                               lbs.data());
+            character_fit::skin_linearly(c, rig.rig.skeleton, pose.data(), lbs.data());
             double mean = 0.0, max = 0.0;
             for (int v = 0; v < V; ++v) {
                 const double e = glm::length(

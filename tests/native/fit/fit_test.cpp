@@ -11,7 +11,6 @@
 #include "geometry/cross_section.h"
 #include "fit/ellipse_fit.h"
 #include "fit/fit_rig.h"
-#include "deform/linear_blend_skinning.h"
 #include "sweepdeform/sweepdeform.h"
 
 #include <sweepdeform_io/animation.h>
@@ -567,12 +566,6 @@ void PrintTo(const CharacterCase& c, std::ostream* os) { *os << c.file; }
 
 class FitCharacter : public ::testing::TestWithParam<CharacterCase> {};
 
-int bone_index(const io::Character& c, const std::string& name) {
-    for (size_t b = 0; b < c.bone_names.size(); ++b)
-        if (c.bone_names[b] == name) return static_cast<int>(b);
-    return -1;
-}
-
 /// Posed bone matrices with the subtree of `bone` turned by `angle` about `axis` through
 /// the bone's head.
 std::vector<float> bend_pose(const Skeleton& s, int bone, const dvec3& axis, double angle) {
@@ -630,7 +623,7 @@ void check_character(const io::Character& c, const CharacterCase& cc, const std:
 
     // Elbow and knee keys against the true cross-section area in their plane.
     for (const std::string& lower : {cc.elbow_l, cc.elbow_r, cc.knee_l, cc.knee_r}) {
-        const int bone = bone_index(c, lower);
+        const int bone = character_fit::bone_named(c, lower);
         ASSERT_GE(bone, 0) << lower;
         bool found = false;
         for (size_t i = 0; i < r.chains.chains.size(); ++i) {
@@ -652,7 +645,7 @@ void check_character(const io::Character& c, const CharacterCase& cc, const std:
     // 90° bends of the left elbow and knee through the skeleton.
     const dvec3 left = r.chains.frame.left;
     for (const std::string& lower : {cc.elbow_l, cc.knee_l}) {
-        const int bone = bone_index(c, lower);
+        const int bone = character_fit::bone_named(c, lower);
         const int upper = s.parents[bone];
         const dvec3 u = glm::normalize(s.tails[upper] - s.heads[upper]),
                     f = glm::normalize(s.tails[bone] - s.heads[bone]);
@@ -738,7 +731,7 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
     const Skeleton s = skeleton_of(t);
     std::vector<float> pose = io::rest_pose(t);
     for (const char* name : {"upperarm_l", "upperarm_r"}) {
-        const int bone = bone_index(t, name);
+        const int bone = character_fit::bone_named(t, name);
         const dvec3 d = glm::normalize(s.tails[bone] - s.heads[bone]);
         const dvec3 target = glm::normalize(dvec3(d.x, 0.0, 0.0));  // straight out sideways
         const dvec3 axis = glm::normalize(glm::cross(d, target));
@@ -751,13 +744,11 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
                     break;
                 }
     }
-    SkeletonPose sp;
-    sp.set(s, pose.data());
     std::vector<float> moved(t.positions.size());
-    const int V = static_cast<int>(t.positions.size() / 3);
-    skin_linear_blend4(bone_affines(sp), V, t.positions.data(), t.skin_joints.data(), t.skin_weights.data(),
-                       moved.data());
+    character_fit::skin_linearly(t, s, pose.data(), moved.data());
     t.positions = moved;
+    SkeletonPose sp;  // the bones moved with the skin
+    sp.set(s, pose.data());
     t.bone_rest = pose;
     for (int b = 0; b < s.bone_count(); ++b) {
         const dvec3 h = dvec3(sp.deform[b] * dvec4(s.heads[b], 1.0)), tl = dvec3(sp.deform[b] * dvec4(s.tails[b], 1.0));
@@ -873,10 +864,7 @@ TEST_P(FitMotion, MocapPosesStayCloseToSkinning) {
         for (double t : {0.5, 2.0, 4.0}) {
             const auto pose = io::sample_pose(c, static_cast<int>(clip), t);
             d.deform(pose.data(), out.data());
-            SkeletonPose sp;
-            sp.set(s, pose.data());
-            skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
-                               lbs.data());
+            character_fit::skin_linearly(c, s, pose.data(), lbs.data());
             double mean = 0.0, max = 0.0;
             for (int v = 0; v < V; ++v) {
                 const double e = glm::length(
@@ -931,7 +919,9 @@ TEST(FitSeams, SplitVerticesMoveTogether) {
     const int V = static_cast<int>(c.positions.size() / 3);
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
     Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
-    const int thigh = bone_index(c, kCesiumMan.knee_l) >= 0 ? s.parents[bone_index(c, kCesiumMan.knee_l)] : -1;
+    const int thigh = character_fit::bone_named(c, kCesiumMan.knee_l) >= 0
+                          ? s.parents[character_fit::bone_named(c, kCesiumMan.knee_l)]
+                          : -1;
     ASSERT_GE(thigh, 0);
     const dvec3 left = r.chains.frame.left;
     std::vector<float> out(c.positions.size());

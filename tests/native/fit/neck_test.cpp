@@ -8,7 +8,6 @@
 #include "dihedral.h"
 #include "turned_pose.h"
 #include "deform/deform.h"
-#include "deform/linear_blend_skinning.h"
 
 #include <sweepdeform_io/gltf_loader.h>
 
@@ -33,12 +32,6 @@ void PrintTo(const NeckCase& c, std::ostream* os) { *os << c.file; }
 
 class NeckTwist : public ::testing::TestWithParam<NeckCase> {};
 
-int bone_named(const io::Character& c, const std::string& name) {
-    for (size_t b = 0; b < c.bone_names.size(); ++b)
-        if (c.bone_names[b] == name) return static_cast<int>(b);
-    return -1;
-}
-
 TEST_P(NeckTwist, TurnsTheNeckWithoutShearingItsBase) {
     const NeckCase& nc = GetParam();
     const std::string path = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + nc.file;
@@ -48,7 +41,7 @@ TEST_P(NeckTwist, TurnsTheNeckWithoutShearingItsBase) {
     const fit::FitResult r = fit::fit_rig(character_fit::character_input(c, s));
     const int V = static_cast<int>(c.positions.size() / 3);
     Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
-    const int neck = bone_named(c, nc.neck), head = bone_named(c, nc.head);
+    const int neck = character_fit::bone_named(c, nc.neck), head = character_fit::bone_named(c, nc.head);
     ASSERT_TRUE(neck >= 0 && head >= 0);
 
     // The neck and everything above it turned 60° about the line from the neck's base to the
@@ -65,10 +58,7 @@ TEST_P(NeckTwist, TurnsTheNeckWithoutShearingItsBase) {
     }
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     d.deform(pose.data(), out.data());
-    SkeletonPose sp;
-    sp.set(s, pose.data());
-    skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
-                       lbs.data());
+    character_fit::skin_linearly(c, s, pose.data(), lbs.data());
     const double sweep = glm::degrees(testing::max_dihedral_change(c, out, watched));
     const double skinning = glm::degrees(testing::max_dihedral_change(c, lbs, watched));
     std::printf("%s: neck turned 60 deg, largest crease at the neck %.1f deg (linear blend skinning %.1f)\n", nc.file,

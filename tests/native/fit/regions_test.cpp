@@ -78,12 +78,6 @@ TEST(RegionsAnalytic, TheSmoothingReachesADistanceNotANumberOfRings) {
 
 std::string data_file(const std::string& name) { return std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + name; }
 
-int bone_named(const io::Character& c, const std::string& name) {
-    for (size_t b = 0; b < c.bone_names.size(); ++b)
-        if (c.bone_names[b] == name) return static_cast<int>(b);
-    return -1;
-}
-
 // CesiumMan's skin gives the torso 3-4 % of the skin half way down its left thigh. Smoothed over
 // six rings of its coarse mesh that became 10-14 %, and flexing the hip 90° pulled that skin up
 // to 2.9 cm off the thigh (skineval hip_flex_90: r_max 1.50 against Preserve Volume's 1.39).
@@ -92,7 +86,8 @@ TEST(RegionsCharacter, CesiumMansTorsoDoesNotReachDownItsThigh) {
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
     const io::Character c = io::load_gltf_character(path);
     const fit::FitResult f = fit::fit_rig(character_fit::fit_input(c));
-    const int hips = bone_named(c, "Skeleton_torso_joint_1"), thigh = bone_named(c, "leg_joint_L_1");
+    const int hips = character_fit::bone_named(c, "Skeleton_torso_joint_1"),
+              thigh = character_fit::bone_named(c, "leg_joint_L_1");
     ASSERT_GE(hips, 0);
     ASSERT_GE(thigh, 0);
     int torso = -1;

@@ -8,7 +8,6 @@
 #include "bind/bind.h"
 #include "deform/deform.h"
 #include "fit/fit_rig.h"
-#include "deform/linear_blend_skinning.h"
 #include "measure/measure.h"
 
 #include <sweepdeform_io/animation.h>
@@ -108,10 +107,7 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
     }
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     d.deform(pose.data(), out.data());
-    SkeletonPose sp;
-    sp.set(s, pose.data());
-    skin_linear_blend4(bone_affines(sp), V, c.positions.data(), c.skin_joints.data(), c.skin_weights.data(),
-                       lbs.data());
+    character_fit::skin_linearly(c, s, pose.data(), lbs.data());
     // The upper body (above 40 % of the way from the hips to the shoulders): the trunk has no
     // weight on the arm proper, the shoulder band less than half.
     double shoulder_z = 0.0, hip_z = 1e30;
