@@ -115,9 +115,9 @@ private:
     SkeletonPose pose_;
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;
-    std::vector<BoneFrame> bone_frames_;             // per bone, bones_ as dual quaternions
-    std::vector<uint8_t> point_sweep_, point_bone_;  // per influence: joins as a point
-    SweepKernel::LocalMaps maps_;                    // what deform() gives besides positions
+    std::vector<BoneFrame> bone_frames_;           // per bone, bones_ as dual quaternions
+    std::vector<float> point_sweep_, point_bone_;  // per influence: the share that joins as a point
+    SweepKernel::LocalMaps maps_;                  // what deform() gives besides positions
 };
 
 }  // namespace sd

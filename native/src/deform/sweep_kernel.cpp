@@ -153,6 +153,10 @@ void add_slot_turn(const float* t, float* j) {
     for (int k = 0; k < 9; ++k) j[k] += t[k];
 }
 
+void add_slot_turn(float part, const float* t, float* j) {
+    for (int k = 0; k < 9; ++k) j[k] += part * t[k];
+}
+
 void add_bone_turn(float w, const Affine3x4& m, float* j) {
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) j[3 * r + c] += w * m.m[r][c];
@@ -161,8 +165,8 @@ void add_bone_turn(float w, const Affine3x4& m, float* j) {
 }  // namespace
 
 SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
-                         const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<uint8_t>& point_sweep,
-                         const std::vector<uint8_t>& point_bone) {
+                         const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<float>& point_sweep,
+                         const std::vector<float>& point_bone) {
     const auto& inf = b.sweep_influences;
     const size_t n = inf.size();
     const int V = b.vertex_count();
@@ -174,9 +178,9 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         int frames = 0;
         float share = 0.0f;
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i)
-            if (!point_sweep[i]) ++frames, share += inf[i].weight;
+            if (point_sweep[i] < 1.0f) ++frames, share += (1.0f - point_sweep[i]) * inf[i].weight;
         for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
-            if (!point_bone[i]) ++frames, share += b.bone_influences[i].weight;
+            if (point_bone[i] < 1.0f) ++frames, share += (1.0f - point_bone[i]) * b.bone_influences[i].weight;
         const bool blends = frames > 1 && b.sweep_offsets[v + 1] > b.sweep_offsets[v];
         row_blends[v] = blends ? share : 0.0f;
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) blended[i] = blends;
@@ -244,12 +248,16 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
             const uint32_t first = sweep ? b.sweep_offsets[v] : b.bone_offsets[v];
             const uint32_t last = sweep ? b.sweep_offsets[v + 1] : b.bone_offsets[v + 1];
             for (uint32_t i = first; i < last; ++i) {
-                if ((sweep ? point_sweep[i] : point_bone[i]) != point) continue;
+                // The part of the influence that joins this way (an influence may join partly
+                // as a frame and partly as a point: the armpit's web, point_influences).
+                const float as_point = sweep ? point_sweep[i] : point_bone[i];
+                const float part = point ? as_point : 1.0f - as_point;
+                if (!(part > 0.0f)) continue;
                 if (sweep)
-                    blend_entries_.push_back({slot_of[i], inf[i].weight});
+                    blend_entries_.push_back({slot_of[i], part});
                 else
                     blend_entries_.push_back(
-                        {static_cast<uint32_t>(b.bone_influences[i].bone), b.bone_influences[i].weight});
+                        {static_cast<uint32_t>(b.bone_influences[i].bone), part * b.bone_influences[i].weight});
                 ++row.count[kind];
             }
         }
@@ -406,11 +414,11 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             FrameBlend blend;
             for (const BlendEntry* f = frame_slots; f != point_slots; ++f) {
                 const float* o = &frames_[8 * static_cast<size_t>(f->index)];
-                blend.add_weighted(o, o + 4);
+                blend.add_weighted(f->weight * load4(o), f->weight * load4(o + 4));
             }
             for (const BlendEntry* f = point_slots; f != frame_bones; ++f) {
-                p += load4(p4 + 4 * static_cast<size_t>(f->index));
-                if (j) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
+                p += f->weight * load4(p4 + 4 * static_cast<size_t>(f->index));
+                if (j) add_slot_turn(f->weight, &turns_[9 * static_cast<size_t>(f->index)], j);
             }
             for (const BlendEntry* f = frame_bones; f != point_bones; ++f) {
                 const BoneFrame& bf = bone_frames[f->index];
@@ -462,8 +470,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 if (j)
                     for (int c = 0; c < 9; ++c) j[c] = 0.0f;
                 for (const BlendEntry* f = first; f != bones_first; ++f) {
-                    p += load4(p4 + 4 * static_cast<size_t>(f->index));
-                    if (j) add_slot_turn(&turns_[9 * static_cast<size_t>(f->index)], j);
+                    p += f->weight * load4(p4 + 4 * static_cast<size_t>(f->index));
+                    if (j) add_slot_turn(f->weight, &turns_[9 * static_cast<size_t>(f->index)], j);
                 }
                 float all[3] = {0.0f, 0.0f, 0.0f};
                 for (const BlendEntry* f = bones_first; f != end; ++f) {

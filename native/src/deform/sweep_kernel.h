@@ -34,11 +34,12 @@ public:
     /// @param span_base  first span of each sweep in the frame's half-span array (which holds
     ///                   2 entries per span: halves u < 0.5 and u >= 0.5)
     /// @param rest_inverse  per sweep influence (the binding's order): Q_rest(u)^-1, x y z w
-    /// @param point_sweep, point_bone  per sweep / bone influence (the binding's order): it
-    ///                      joins the vertex as a point (convex combination), not as a frame
+    /// @param point_sweep, point_bone  per sweep / bone influence (the binding's order): the
+    ///                      share of its weight that joins the vertex as a point (convex
+    ///                      combination) rather than as a frame, in [0, 1]
     SweepKernel(const Binding& binding, const std::vector<int>& span_base,
-                const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<uint8_t>& point_sweep,
-                const std::vector<uint8_t>& point_bone);
+                const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<float>& point_sweep,
+                const std::vector<float>& point_bone);
 
     /// What run() gives besides the positions: each vertex's local linear map J (blended as
     /// its position was: Σ w R(u) R_rest(u)^-1 over its sweeps, Σ w M_b (3x3) over its bones,
@@ -78,7 +79,7 @@ private:
     /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.
     struct BlendEntry {
         uint32_t index;
-        float weight;
+        float weight;  ///< a bone's weight; for a sweep's slot, the part of its own weight
     };
     /// A frame-blended vertex: its entries from `first`, counted by kind in this order: sweep
     /// frames, sweep points, bone frames, bone points.
