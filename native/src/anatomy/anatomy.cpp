@@ -3,6 +3,7 @@
 // in anatomy_joints.cpp, the volume restoration in volume_restoration.cpp.
 #include "anatomy/anatomy.h"
 #include "anatomy/anatomy_internal.h"
+#include "math/flush_denormals.h"
 
 #include <glm/gtc/matrix_transform.hpp>
 
@@ -312,6 +313,7 @@ void Anatomy::deform(Deformer& d, const float* pose, float* out) {
     // The passes set the deformer's volume offsets and deform: kept together, and this
     // anatomy's own per-frame state with them, against another thread using the same deformer.
     const auto guard = d.lock();
+    const FlushDenormals flush;  // the effects' own passes, on this thread (flush_denormals.h)
     if (d.vertex_count() != vertex_count() || d.rig().sweeps.size() != rig_.sweeps.size() ||
         d.rig().skeleton.bone_count() != rig_.skeleton.bone_count())
         throw InvalidInput("the deformer was made for another rig or mesh");

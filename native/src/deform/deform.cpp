@@ -1,6 +1,7 @@
 #include "deform/deform.h"
 
 #include "deform/frame_blend.h"
+#include "math/flush_denormals.h"
 #include "rig/key_pose.h"
 #include "rig/trunk.h"
 
@@ -463,6 +464,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
 
 void Deformer::deform(const float* pose, float* out) {
     const std::lock_guard<std::recursive_mutex> guard(mutex_);
+    const FlushDenormals flush;  // and in each of the kernel's parallel loops (flush_denormals.h)
     // Isolated: while this thread waits for the kernel's tasks it must not pick up an outer
     // task that could enter this deformer again (the lock is recursive, the scratch is not).
     tbb::this_task_arena::isolate([&] {

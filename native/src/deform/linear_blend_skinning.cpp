@@ -1,5 +1,7 @@
 #include "deform/linear_blend_skinning.h"
 
+#include "math/flush_denormals.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -16,6 +18,7 @@ std::vector<Affine3x4> bone_affines(const SkeletonPose& pose) {
 void skin_linear_blend4(const std::vector<Affine3x4>& bones, int V, const float* rest, const int32_t* joints,
                         const float* weights, float* out) {
     tbb::parallel_for(tbb::blocked_range<int>(0, V, 2048), [&](const tbb::blocked_range<int>& r) {
+        const FlushDenormals flush;  // flush_denormals.h
         for (int v = r.begin(); v != r.end(); ++v) {
             // Blend the matrices first (12 multiply-adds per influence), then apply once:
             // the usual GPU/real-time formulation.

@@ -1,5 +1,7 @@
 #include "deform/output_check.h"
 
+#include "math/flush_denormals.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -231,6 +233,7 @@ OutputCheck::Verdict OutputCheck::check(const float* pose, const float* position
     std::vector<Verdict> found(static_cast<size_t>(chunks));
     tbb::this_task_arena::isolate([&] {
         tbb::parallel_for(tbb::blocked_range<int32_t>(0, chunks, 1), [&](const tbb::blocked_range<int32_t>& r) {
+            const FlushDenormals flush;  // a frame's check (flush_denormals.h)
             for (int32_t c = r.begin(); c != r.end(); ++c) {
                 const int32_t begin = c * kGrain, end = std::min(V, begin + kGrain);
                 if (use_filter &&
@@ -281,6 +284,7 @@ void OutputCheck::linear_blend(const float* pose, float* out) const {
     tbb::this_task_arena::isolate([&] {
         tbb::parallel_for(tbb::blocked_range<size_t>(0, rest_.size(), kGrain),
                           [&](const tbb::blocked_range<size_t>& r) {
+                              const FlushDenormals flush;
                               for (size_t v = r.begin(); v != r.end(); ++v) {
                                   dvec3 p = rest_[v];
                                   if (heaviest_[v] >= 0) {

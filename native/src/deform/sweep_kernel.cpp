@@ -1,6 +1,7 @@
 #include "deform/sweep_kernel.h"
 
 #include "deform/frame_blend.h"
+#include "math/flush_denormals.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -314,6 +315,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                            sin_.data(), rx_.data(), ry_.data(), rz_.data(),    rw_.data(), vx_.data(),
                            vy_.data(),  vz_.data(), p4_.data(), frames_.data()};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches_.size()), [&](const tbb::blocked_range<size_t>& r) {
+        const FlushDenormals flush;
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const Batch& bt = batches_[i];
             if (bt.frames)
@@ -487,6 +489,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     // one wait for the threads, and no two threads writing the same cache lines of `out`.
     const int blocks = static_cast<int>(block_plain_.size()) - 1;
     tbb::parallel_for(tbb::blocked_range<int>(0, blocks, 1), [&](const tbb::blocked_range<int>& r) {
+        const FlushDenormals flush;
         for (int i = r.begin(); i != r.end(); ++i) {
             plain_block(block_plain_[i], block_plain_[i + 1]);
             blended_block(block_blended_[i], block_blended_[i + 1]);
