@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include <glm/gtc/quaternion.hpp>
+#include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include <array>
@@ -370,9 +371,13 @@ void Deformer::set_joint_volumes(std::vector<JointVolumeTable> tables) {
 }
 
 void Deformer::prepare_sweeps(const SkeletonPose& pose) {
-    std::vector<dvec3> centers;
-    std::vector<dquat> rotations;
-    for (size_t si = 0; si < rig_.sweeps.size(); ++si) {
+    // The sweeps are independent (each writes its own keys' rotations, volumes and half-spans):
+    // in parallel, since this is the frame's one serial stretch before the kernel (34 us of a
+    // 450 us frame of MakeHuman's 80K vertices on two threads in sweep_bench).
+    tbb::parallel_for(size_t(0), rig_.sweeps.size(), [&](size_t si) {
+        const FlushDenormals flush;
+        std::vector<dvec3> centers;
+        std::vector<dquat> rotations;
         const Sweep& s = rig_.sweeps[si];
         pose_keys(s, pose, centers, rotations);
         // The artist's corrections (Sect. 4.2) move, turn and scale the placed keys; scaled
@@ -459,7 +464,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
                     kern.db[r] = static_cast<float>(sb);
                 }
             }
-    }
+    });
 }
 
 void Deformer::deform(const float* pose, float* out) {
