@@ -11,8 +11,9 @@ from . import mesh_data, persistence
 #: Joint kinds of the properties → sd_joint_kind.
 _JOINT_KINDS = {'ELBOW': native.JOINT_ELBOW, 'KNEE': native.JOINT_KNEE}
 
-#: sd_anatomy_set_volume_feedback mode the add-on uses: two passes per frame, so a frame
-#: depends on its pose only (a render, a scrub and playback give the same mesh).
+#: sd_anatomy_set_volume_feedback mode the add-on uses: I_C put back within the frame (one
+#: pass of the effects, the sweeps again), so a frame depends on its pose only (a render, a
+#: scrub and playback give the same mesh).
 VOLUME_FEEDBACK_MODE = 2
 
 

@@ -467,8 +467,9 @@ SD_API sd_status sd_anatomy_set_joint_proxy(sd_anatomy* anatomy, int32_t joint, 
  * How I_C (the volume bulge, protrusion and folding added, per sweep) reaches the volume
  * control. mode 0: not at all; 1 (default): I_C of a frame sets the next frame's target (one
  * pass, as in the paper; approached with gain 0.6 and bounded to 15 % of the sweep's volume);
- * 2: two passes per frame, the second with the first's I_C and restoration (results depend
- * on the pose only). restore != 0 (default): the skin of each sweep that owns an elbow or a
+ * 2: I_C put back in the same frame (results depend on the pose only): one pass of the
+ * effects, the sweeps evaluated again with the frame's I_C and their change added, the
+ * restoration started from nothing and trimmed twice. restore != 0 (default): the skin of each sweep that owns an elbow or a
  * knee is held at its rest mesh volume by a smooth outward push around the joint on its
  * extensor half, trimmed after folding in every frame by the measured deficit (what the
  * sweep integral cannot see: the displacement map's own volume change at deep bends, volume

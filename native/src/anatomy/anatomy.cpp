@@ -108,7 +108,7 @@ void Anatomy::apply(const SkeletonPose& pose, float* p, Deformer* deformer) {
     stats_ = AnatomyStats{};
     stats_.passes = 1;
     const auto t0 = Clock::now();
-    apply_pass(pose, p);
+    apply_pass(pose, p, InFrame{});
     if (deformer) feed(*deformer);
     stats_.ms_total = ms_since(t0);
 }
@@ -153,7 +153,22 @@ void Anatomy::effects_change(const std::vector<JointPose>& jp, std::vector<doubl
     }
 }
 
-void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
+void Anatomy::correct_in_frame(const InFrame& in_frame, const std::vector<double>& ic, float* p) {
+    // As the next frame would take it (feedback gain, bound), from nothing.
+    for (size_t s = 0; s < offsets_.size(); ++s) {
+        const double cap = kMaxOffset * rig_.sweeps[s].rest_volume;
+        offsets_[s] = std::clamp(kFeedbackGain * ic[s], -cap, cap);
+    }
+    feed(*in_frame.deformer);
+    const size_t n = 3 * static_cast<size_t>(vertex_count());
+    corrected_.resize(n);
+    const auto t = Clock::now();
+    in_frame.deformer->deform(in_frame.pose, corrected_.data());
+    for (size_t i = 0; i < n; ++i) p[i] += corrected_[i] - swept_[i];
+    stats_.ms_sweeps += ms_since(t);
+}
+
+void Anatomy::apply_pass(const SkeletonPose& pose, float* p, const InFrame& in_frame) {
     current_ = p;
     if (collision_dirty_) rebuild_collision_set();
     edits_.clear();
@@ -199,6 +214,9 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
     // The volume bulge and protrusion added (before anything else moves).
     t = Clock::now();
     effects_change(jp, early_change_);
+    // With the restoration, I_C is what bulge and protrusion added: put back now, so that the
+    // restoration's trim and folding below see the skin as it ends.
+    if (in_frame.deformer && restore_) correct_in_frame(in_frame, early_change_, p);
     // The volume restoration's push (its height set by the frames before), ahead of the
     // collision detection, so that folding handles whatever contact it makes.
     if (restore_) stats_.restored_volume = restore_push(pose, p);
@@ -277,6 +295,9 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p) {
         t = Clock::now();
         moved_.clear();
         stats_.restored_volume += restore_trim(pose, p);
+        // In one pass a first-order trim is all the frame gets: a second one, on the skin the
+        // first left, takes the place of the second pass's (at 150 degrees the first overshot).
+        if (in_frame.deformer) stats_.restored_volume += restore_trim(pose, p);
         stats_.ms_volume += ms_since(t);
         if (!moved_.empty()) {
             detect_changed();
@@ -320,22 +341,26 @@ void Anatomy::deform(Deformer& d, const float* pose, float* out) {
     stats_ = AnatomyStats{};
     const auto t0 = Clock::now();
     pose_.set(rig_.skeleton, pose);
-    const int passes = feedback_ == VolumeFeedback::InFrame ? 2 : 1;
     if (feedback_ != VolumeFeedback::NextFrame) {
         applied_.assign(rig_.sweeps.size(), 0.0);
         d.set_volume_offsets(applied_);
     }
-    // Two passes in one frame start from nothing: the frame depends on its pose only.
-    if (feedback_ == VolumeFeedback::InFrame)
+    // In the frame: the restoration from nothing and I_C put back by the sweeps alone, so the
+    // frame depends on its pose only. (A second pass of sweeps and effects did the same and
+    // took as long again: collision, folding and restoration are most of a frame.)
+    const bool in_frame = feedback_ == VolumeFeedback::InFrame;
+    if (in_frame)
         for (RestoreZone& z : restore_zones_) z.height = 0.0;
-    for (int pass = 0; pass < passes; ++pass) {
-        auto t = Clock::now();
-        d.deform(pose, out);
-        stats_.ms_sweeps += ms_since(t);
-        apply_pass(pose_, out);
-        if (feedback_ != VolumeFeedback::Off) feed(d);
-    }
-    stats_.passes = passes;
+    auto t = Clock::now();
+    d.deform(pose, out);
+    stats_.ms_sweeps += ms_since(t);
+    if (in_frame) swept_.assign(out, out + 3 * static_cast<size_t>(vertex_count()));
+    const InFrame correction = in_frame ? InFrame{&d, pose} : InFrame{};
+    apply_pass(pose_, out, correction);
+    // Without the restoration I_C includes folding's share: known at the end of the pass.
+    if (in_frame && !restore_) correct_in_frame(correction, total_change_, out);
+    if (feedback_ != VolumeFeedback::Off) feed(d);
+    stats_.passes = 1;
     stats_.ms_total = ms_since(t0);
 }
 

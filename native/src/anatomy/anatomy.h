@@ -39,8 +39,9 @@ namespace sd::anatomy {
 enum class VolumeFeedback {
     Off = 0,        ///< not at all
     NextFrame = 1,  ///< this frame's I_C sets the next frame's target (the paper; one pass)
-    InFrame = 2,    ///< two passes per frame: sweeps, effects, I_C, then sweeps and effects
-                    ///< again with that I_C (the result depends on the pose only)
+    InFrame = 2,    ///< I_C in the same frame: sweeps, effects (I_C known after bulge and
+                    ///< protrusion, or at the end without the restoration), the sweeps again
+                    ///< with it and their change added; the result depends on the pose only
 };
 
 struct AnatomyStats {
@@ -59,7 +60,7 @@ struct AnatomyStats {
     double effects_volume = 0;      ///< Σ volume bulge, protrusion and folding added (with the
                                     ///< restoration on: bulge and protrusion only)
     double restored_volume = 0;     ///< Σ volume the restoration added
-    int passes = 0;                 ///< sweep + effects passes (2 with VolumeFeedback::InFrame)
+    int passes = 0;                 ///< passes of the effects (1; the sweeps run twice with InFrame)
     double ms_first_detection = 0;  ///< of ms_collision: the full query (the rest re-checks)
     int rechecks = 0;               ///< re-check queries after folding or restoration
     long rechecked_triangles = 0;   ///< triangles they were asked about
@@ -133,7 +134,17 @@ public:
     int vertex_count() const { return mesh_.vertex_count; }
 
 private:
-    void apply_pass(const SkeletonPose& pose, float* positions);
+    /// The effects on `positions`. With `in_frame` (VolumeFeedback::InFrame), the frame's own
+    /// I_C is put back as soon as it is known, by the sweeps once more (correct_in_frame).
+    struct InFrame {
+        Deformer* deformer = nullptr;
+        const float* pose = nullptr;
+    };
+    void apply_pass(const SkeletonPose& pose, float* positions, const InFrame& in_frame);
+    /// The sweeps again with the volume offsets I_C sets, their change added to `positions`:
+    /// the effects are displacements of the swept skin, which I_C moves by a few per cent of
+    /// the joints' volume.
+    void correct_in_frame(const InFrame& in_frame, const std::vector<double>& ic, float* positions);
     void effects_change(const std::vector<JointPose>& jp, std::vector<double>& change);
     void feed(Deformer& deformer);
     void build_sweep_region(int sweep);
@@ -193,6 +204,7 @@ private:
     std::vector<double> applied_;                      // the offsets last handed to a deformer
     std::vector<double> early_change_, total_change_;  // per sweep: after bulge+protrusion, after folding
     const float* current_ = nullptr;                   // the positions of the frame being made
+    std::vector<float> swept_, corrected_;             // InFrame: the sweeps before and after I_C
     AnatomyStats stats_;
 
     // Per-frame scratch.

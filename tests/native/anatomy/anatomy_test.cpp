@@ -472,7 +472,7 @@ TEST(Anatomy, ResultDoesNotDependOnTheThreadCount) {
     EXPECT_EQ(out[0], out[1]);
 }
 
-TEST(Anatomy, TwoPassFramesDependOnThePoseOnly) {
+TEST(Anatomy, InFrameFramesDependOnThePoseOnly) {
     const test::Arm arm;
     const auto make = [&](std::vector<double> history) {
         ArmWithElbowEffects fx(arm);
@@ -483,6 +483,35 @@ TEST(Anatomy, TwoPassFramesDependOnThePoseOnly) {
         return out;
     };
     EXPECT_EQ(make({}), make({90.0, 120.0, 40.0}));
+}
+
+TEST(Anatomy, InFrameFeedbackLandsWhereAHeldPoseSettles) {
+    // One frame with the feedback in the frame (one pass of the effects, the sweeps again with
+    // that frame's I_C) against the paper's feedback, frame to frame, the pose held until it
+    // settles: the same skin to a small part of the arm's radius, in one pass of the effects.
+    const test::Arm arm;
+    const auto pose = arm.pose(glm::radians(150.0));
+    ArmWithElbowEffects held(arm);
+    held.anatomy.set_volume_feedback(VolumeFeedback::NextFrame);
+    std::vector<float> settled;
+    for (int frame = 0; frame < 30; ++frame) settled = held.deform(pose);
+    ArmWithElbowEffects now(arm);
+    now.anatomy.set_volume_feedback(VolumeFeedback::InFrame);
+    const std::vector<float> one = now.deform(pose);
+    EXPECT_EQ(now.anatomy.stats().passes, 1);
+    EXPECT_GT(std::abs(now.anatomy.stats().volume_change), 0.0);  // the effects changed the volume
+    ArmWithElbowEffects none(arm);
+    none.anatomy.set_volume_feedback(VolumeFeedback::Off);
+    const std::vector<float> uncorrected = none.deform(pose);
+    const auto rms = [](const std::vector<float>& p, const std::vector<float>& q) {
+        double sum = 0.0;
+        for (size_t i = 0; i < p.size(); ++i) sum += (double(p[i]) - q[i]) * (double(p[i]) - q[i]);
+        return std::sqrt(sum / double(p.size() / 3));
+    };
+    const double apart = rms(one, settled), without = rms(uncorrected, settled);
+    std::printf("arm at 150 deg (half-axes %.2f, %.2f): in-frame vs settled %.2e, without feedback vs settled %.2e\n",
+                test::Arm::kA, test::Arm::kB, apart, without);
+    EXPECT_LT(apart, 0.5 * without);
 }
 
 TEST(Anatomy, ProxyMeshesMustBeClosedAndStarShaped) {
