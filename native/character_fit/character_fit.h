@@ -4,12 +4,15 @@
 #pragma once
 
 #include "bind/bind.h"
+#include "deform/deform.h"
 #include "deform/linear_blend_skinning.h"
 #include "fit/fit_rig.h"
 
 #include <sweepdeform_io/character.h>
 
+#include <memory>
 #include <string>
+#include <utility>
 
 namespace sd::character_fit {
 
@@ -44,6 +47,23 @@ inline Binding bind_fitted(const fit::FitResult& f, int vertex_count, const floa
 /// Binds the character with the fitted rig and region weights.
 inline Binding bind_fitted(const io::Character& c, const fit::FitResult& f) {
     return bind_fitted(f, static_cast<int>(c.positions.size() / 3), c.positions.data());
+}
+
+/// A character fitted and bound by the product as the add-on does it, with its deformer.
+struct Fitted {
+    io::Character character;
+    Skeleton skeleton;
+    fit::FitResult fit;
+    std::unique_ptr<Deformer> deformer;  // held by pointer: a Deformer does not move
+};
+
+inline Fitted fit_and_bind(io::Character c) {
+    Fitted f;
+    f.skeleton = skeleton_of(c);
+    f.fit = fit::fit_rig(character_input(c, f.skeleton));
+    f.deformer = std::make_unique<Deformer>(f.fit.rig, bind_fitted(c, f.fit));
+    f.character = std::move(c);
+    return f;
 }
 
 /// The index of the bone called `name`, -1 if the character has none.

@@ -914,11 +914,12 @@ TEST(FitCharacterTiming, RefinedMakeHumanFitPlusBind) {
 TEST(FitSeams, SplitVerticesMoveTogether) {
     const std::string path = data_file(kCesiumMan.file);
     REQUIRE_DATA(path);
-    const io::Character c = io::load_gltf_character(path);  // not welded
-    const Skeleton s = skeleton_of(c);
+    const character_fit::Fitted fitted = character_fit::fit_and_bind(io::load_gltf_character(path));  // not welded
+    const io::Character& c = fitted.character;
+    const Skeleton& s = fitted.skeleton;
+    const fit::FitResult& r = fitted.fit;
+    Deformer& d = *fitted.deformer;
     const int V = static_cast<int>(c.positions.size() / 3);
-    const fit::FitResult r = fit::fit_rig(character_input(c, s));
-    Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
     const int thigh = character_fit::bone_named(c, kCesiumMan.knee_l) >= 0
                           ? s.parents[character_fit::bone_named(c, kCesiumMan.knee_l)]
                           : -1;

@@ -36,11 +36,11 @@ TEST_P(NeckTwist, TurnsTheNeckWithoutShearingItsBase) {
     const NeckCase& nc = GetParam();
     const std::string path = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + nc.file;
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
-    const io::Character c = io::load_gltf_character(path);
-    const Skeleton s = character_fit::skeleton_of(c);
-    const fit::FitResult r = fit::fit_rig(character_fit::character_input(c, s));
+    const character_fit::Fitted fitted = character_fit::fit_and_bind(io::load_gltf_character(path));
+    const io::Character& c = fitted.character;
+    const Skeleton& s = fitted.skeleton;
+    Deformer& d = *fitted.deformer;
     const int V = static_cast<int>(c.positions.size() / 3);
-    Deformer d(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
     const int neck = character_fit::bone_named(c, nc.neck), head = character_fit::bone_named(c, nc.head);
     ASSERT_TRUE(neck >= 0 && head >= 0);
 

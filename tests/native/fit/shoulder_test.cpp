@@ -210,17 +210,15 @@ protected:
     void SetUp() override {
         const std::string path = data_file("mh_male_game_engine.glb");
         if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found: skipped";
-        c = io::load_gltf_character(path);
-        s = skeleton_of(c);
+        fitted = character_fit::fit_and_bind(io::load_gltf_character(path));
         V = static_cast<int>(c.positions.size() / 3);
-        r = fit::fit_rig(character_input(c, s));
-        d = std::make_unique<Deformer>(r.rig, character_fit::bind_fitted(c, r));
     }
-    io::Character c;
-    Skeleton s;
+    character_fit::Fitted fitted;
+    const io::Character& c = fitted.character;
+    const Skeleton& s = fitted.skeleton;
+    const fit::FitResult& r = fitted.fit;
+    const std::unique_ptr<Deformer>& d = fitted.deformer;
     int V = 0;
-    fit::FitResult r;
-    std::unique_ptr<Deformer> d;
 };
 
 /// The area of the loop around `center` cut by the plane (center, normal) from the triangles
