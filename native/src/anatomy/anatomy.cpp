@@ -153,12 +153,17 @@ void Anatomy::effects_change(const std::vector<JointPose>& jp, std::vector<doubl
     }
 }
 
-void Anatomy::correct_in_frame(const InFrame& in_frame, const std::vector<double>& ic, float* p) {
-    // As the next frame would take it (feedback gain, bound), from nothing.
+void Anatomy::offsets_toward(const std::vector<double>& ic) {
+    // Approached with a gain below 1 from the offsets last applied, and bounded.
     for (size_t s = 0; s < offsets_.size(); ++s) {
         const double cap = kMaxOffset * rig_.sweeps[s].rest_volume;
-        offsets_[s] = std::clamp(kFeedbackGain * ic[s], -cap, cap);
+        offsets_[s] = std::clamp(applied_[s] + kFeedbackGain * (ic[s] - applied_[s]), -cap, cap);
     }
+}
+
+void Anatomy::correct_in_frame(const InFrame& in_frame, const std::vector<double>& ic, float* p) {
+    // As the next frame would take it, from nothing (the frame started with no offsets).
+    offsets_toward(ic);
     feed(*in_frame.deformer);
     const size_t n = 3 * static_cast<size_t>(vertex_count());
     corrected_.resize(n);
@@ -319,13 +324,8 @@ void Anatomy::apply_pass(const SkeletonPose& pose, float* p, const InFrame& in_f
     // I_C for the controller: the volume bulge, protrusion and folding added (the paper). With
     // the restoration on, folding's loss is given back locally instead — around the crease,
     // where the squeezed flesh goes — since the controller would inflate the joint key, which
-    // only deepens the contact and buries the bone points. Approached with a gain below 1 and
-    // bounded.
-    for (size_t s = 0; s < offsets_.size(); ++s) {
-        const double ic = restore_ ? early_change_[s] : total_change_[s];
-        const double cap = kMaxOffset * rig_.sweeps[s].rest_volume;
-        offsets_[s] = std::clamp(applied_[s] + kFeedbackGain * (ic - applied_[s]), -cap, cap);
-    }
+    // only deepens the contact and buries the bone points.
+    offsets_toward(restore_ ? early_change_ : total_change_);
     for (double dv : offsets_) stats_.volume_change += dv;
     stats_.ms_volume += ms_since(t);
 }

@@ -145,6 +145,8 @@ private:
     /// the effects are displacements of the swept skin, which I_C moves by a few per cent of
     /// the joints' volume.
     void correct_in_frame(const InFrame& in_frame, const std::vector<double>& ic, float* positions);
+    /// The next offsets for I_C `ic` (per sweep), from those last applied.
+    void offsets_toward(const std::vector<double>& ic);
     void effects_change(const std::vector<JointPose>& jp, std::vector<double>& change);
     void feed(Deformer& deformer);
     void build_sweep_region(int sweep);

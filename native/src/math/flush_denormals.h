@@ -3,7 +3,7 @@
 // Blender's pose matrices and the products of small weights, quaternion parts and half-axis
 // changes give the kernel denormal operands now and then; on x86 each one costs a microcode
 // assist of about a hundred cycles. MakeHuman's 53.5K body, posed in Blender 4.3: 1.63 ms a
-// frame in the core, 0.52 ms with denormals flushed (the same body outside Blender, whose
+// frame in the core, 0.39 ms with denormals flushed (the same body outside Blender, whose
 // poses gave none: 0.37 ms). A denormal is below 1.2e-38: flushing it moves no vertex by
 // anything a float can show at a body's scale.
 //
