@@ -170,6 +170,41 @@ def add_shape_key(body, region="all"):
     kb.value = 1.0
 
 
+def blender_share(body, arm, pose_list, n):
+    """Blender's own part of a Sweep Deform frame, the add-on's handler out of the way: a pose
+    change with no deform modifier on (the armature's evaluation), and an update after the
+    carrier is rewritten with the same pose (the carrier's and the node group's evaluation: the
+    per-vertex Sample Index and Set Position over the whole mesh)."""
+    from bl_ext.user_default.sweep_deform.blender import deformer_cache, handlers, modifier
+    configure(body, 'sweep')
+    time_posing(body, arm, pose_list[:WARM])
+    md = modifier.find(body)
+    e = deformer_cache.entry(body)
+    carrier = modifier.carrier(body, md, e.deformer.vertex_count)[0]
+    offsets = np.array(e.offsets, np.float32)
+    vl = bpy.context.view_layer
+    hooks = bpy.app.handlers.depsgraph_update_post
+    hooks.remove(handlers.on_depsgraph_update_post)
+    try:
+        md.show_viewport = False
+        vl.update()
+        pose_only = time_posing(body, arm, (pose_list * (1 + n // len(pose_list)))[:n])
+        md.show_viewport = True
+        vl.update()
+        node_group = []
+        for i in range(n + WARM):
+            offsets[0, 0] += 1e-7  # a write Blender cannot skip as unchanged
+            modifier.write_offsets(carrier, offsets)
+            t0 = time.perf_counter()
+            vl.update()
+            if i >= WARM:
+                node_group.append(time.perf_counter() - t0)
+    finally:
+        hooks.append(handlers.on_depsgraph_update_post)
+        configure(body, 'sweep')
+    return {'pose only': pose_only, 'node group': node_group}
+
+
 def measure(key, n, rig="fit", shape_key=False):
     import helpers
     loaded = load(key)
@@ -216,6 +251,7 @@ def measure(key, n, rig="fit", shape_key=False):
             results[mode, 'addon'] += list(spent)
             frame.evaluate = original
             check_deformed(body, mode)
+    results.update(blender_share(body, arm, pose_list[:BLOCK * 4], n))
     e = deformer_cache.entry(body)
     pose = e.last_pose.copy()
     core = []
@@ -249,6 +285,9 @@ def measure(key, n, rig="fit", shape_key=False):
         print(f"  ratio Sweep / Armature ({sub}, medians): {r:.2f} (plain), {rd:.2f} (Preserve Volume)")
     a, c = ms(results['sweep', 'addon']), ms(results['core'])
     print(f"  inside the add-on's handler: {a[0]:.2f} ms (core sd_deform alone {c[0]:.2f} ms)")
+    p, g = ms(results['pose only'])[0], ms(results['node group'])[0]
+    print(f"  Blender's own share, handler out: a pose change with no deform modifier {p:.2f} ms; "
+          f"an update after a carrier write (the node group over every vertex) {g:.2f} ms")
     return results
 
 
