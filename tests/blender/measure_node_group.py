@@ -1,0 +1,124 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""What the Sweep Deform node group costs Blender per frame, against the least a node group must
+do to deform a mesh from a carrier: after a carrier write (the pose fixed, the handler out of
+the way), `view_layer.update()` is timed with the character's modifier running
+
+* the product's node group;
+* the least that deforms: Object Info → Sample Index of the carrier's position by Index → Set
+  Position's offset (checked to give the product's positions);
+* Set Position with one offset for every vertex (no per-vertex sample; wrong, for scale), and
+  the least group with Sample Index's Index input unlinked (as fast: it samples index 0);
+* a group that passes the geometry through (the carrier's own evaluation only).
+
+Prints medians; never fails on speed.
+
+    BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
+        --python tests/blender/measure_node_group.py -- [--zip ZIP] [--frames N] [--characters fixture]
+"""
+
+import os
+import statistics
+import sys
+import time
+
+import bpy
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(HERE)), "scripts", "blender_support"))
+
+import helpers  # noqa: E402
+import install  # noqa: E402
+import measure_frame  # noqa: E402
+
+
+def variant(kind, modifier):
+    """A node group with the product's inputs doing `kind` ('least', 'one offset', 'through')."""
+    ng = bpy.data.node_groups.new(f"Sweep Deform, {kind}", 'GeometryNodeTree')
+    for name, socket, io in (("Geometry", 'NodeSocketGeometry', 'INPUT'),
+                             (modifier.CARRIER_INPUT, 'NodeSocketObject', 'INPUT'),
+                             (modifier.RENDER_CARRIER_INPUT, 'NodeSocketObject', 'INPUT'),
+                             ("Geometry", 'NodeSocketGeometry', 'OUTPUT')):
+        ng.interface.new_socket(name=name, in_out=io, socket_type=socket)
+    if hasattr(ng, "is_modifier"):
+        ng.is_modifier = True
+    nodes, links = ng.nodes, ng.links
+    gin, gout = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
+    if kind == 'through':
+        links.new(gin.outputs["Geometry"], gout.inputs["Geometry"])
+        return ng
+    info = nodes.new('GeometryNodeObjectInfo')
+    info.transform_space = 'ORIGINAL'
+    links.new(gin.outputs[modifier.CARRIER_INPUT], info.inputs['Object'])
+    sample = nodes.new('GeometryNodeSampleIndex')
+    sample.data_type = 'FLOAT_VECTOR'
+    sample.domain = 'POINT'
+    links.new(info.outputs['Geometry'], sample.inputs['Geometry'])
+    links.new(nodes.new('GeometryNodeInputPosition').outputs[0], sample.inputs['Value'])
+    if kind == 'least':
+        links.new(nodes.new('GeometryNodeInputIndex').outputs[0], sample.inputs['Index'])
+    elif kind == 'one offset':  # index 0's for every vertex
+        sample.inputs['Index'].default_value = 0
+    # ('unlinked index': the Index input left as it comes)
+    move = nodes.new('GeometryNodeSetPosition')
+    links.new(gin.outputs["Geometry"], move.inputs['Geometry'])
+    links.new(sample.outputs[0], move.inputs['Offset'])
+    links.new(move.outputs['Geometry'], gout.inputs['Geometry'])
+    return ng
+
+
+def main():
+    opts = measure_frame.args()
+    install.install(opts["zip"])
+    from bl_ext.user_default.sweep_deform.blender import deformer_cache, handlers, modifier
+    for key in opts["characters"].split(","):
+        loaded = measure_frame.load(key)
+        if loaded is None:
+            print(f"{key}: file missing, skipped")
+            continue
+        body, arm, _, bones = loaded
+        bpy.context.view_layer.objects.active = body
+        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
+        measure_frame.configure(body, 'sweep')
+        measure_frame.time_posing(body, arm, measure_frame.poses(3, bones))
+        md = modifier.find(body)
+        e = deformer_cache.entry(body)
+        carrier = modifier.carrier(body, md, e.deformer.vertex_count)[0]
+        base = np.array(e.offsets, np.float32)
+        offsets = base.copy()
+        vl = bpy.context.view_layer
+        product = md.node_group
+        kinds = ('least', 'one offset', 'unlinked index', 'through')
+        groups = [("the product's", product)] + [(k, variant(k, modifier)) for k in kinds]
+        bpy.app.handlers.depsgraph_update_post.remove(handlers.on_depsgraph_update_post)
+        times, shown = {label: [] for label, _ in groups}, {}
+        try:
+            for _ in range(3):  # rounds, the groups taking turns
+                for label, ng in groups:
+                    md.node_group = ng
+                    modifier.set_carrier(md, carrier)
+                    vl.update()
+                    for i in range(opts["frames"] // 3 + 2):
+                        offsets[0, 0] += 1e-7  # a write Blender cannot skip as unchanged
+                        modifier.write_offsets(carrier, offsets)
+                        t0 = time.perf_counter()
+                        vl.update()
+                        if i >= 2:
+                            times[label].append(time.perf_counter() - t0)
+                    modifier.write_offsets(carrier, base)  # the same offsets for every group
+                    vl.update()
+                    shown[label] = helpers.evaluated_positions(body)[0].copy()
+        finally:
+            md.node_group = product
+            modifier.set_carrier(md, carrier)
+            bpy.app.handlers.depsgraph_update_post.append(handlers.on_depsgraph_update_post)
+        print(f"\n{key}: {len(body.data.vertices):,} vertices; Blender {bpy.app.version_string}; "
+              f"an update after a carrier write, median ms; the largest difference from the product's positions")
+        for label, _ in groups:
+            off = float(np.abs(shown[label] - shown["the product's"]).max())
+            print(f"  {label:16s} {statistics.median(times[label]) * 1e3:6.3f}   {off:.2e}")
+
+
+if __name__ == "__main__":
+    main()
