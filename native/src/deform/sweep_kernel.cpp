@@ -356,7 +356,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const Float4* columns = bone_columns_.data();
     // One body, compiled twice: with J, and without (sd_deform, every plain frame), where a
     // vertex costs its position alone, none of J's per-vertex lookups and sums (sweep_bench,
-    // MakeHuman 80K: 1.08-1.10 -> 1.01-1.03 of linear blend skinning on two threads).
+    // MakeHuman 80K, alternating builds: 1.07-1.13 -> 0.96-1.04 of linear blend skinning on two
+    // threads, 1.02-1.04 -> 0.93-0.98 on one; docs/figures.md).
     const auto plain_vertices = [&](const int k0, const int k1, auto j_wanted) {
         constexpr bool kJ = decltype(j_wanted)::value;
         for (int k = k0; k != k1; ++k) {
