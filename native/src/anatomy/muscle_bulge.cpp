@@ -1,5 +1,6 @@
 #include "anatomy/muscle_bulge.h"
 
+#include "math/smoothstep.h"
 #include "rig/key_pose.h"
 #include "rig/sweep.h"
 
@@ -10,20 +11,15 @@ namespace sd::anatomy {
 
 namespace {
 
-double smoothstep(double x) {
-    x = std::clamp(x, 0.0, 1.0);
-    return x * x * (3.0 - 2.0 * x);
-}
-
 /// A plateau on [0, 1] whose edges rise over `falloff` of the extent.
 double plateau(double x, double falloff) {
     if (x <= 0.0 || x >= 1.0) return 0.0;
-    return smoothstep(x / falloff) * smoothstep((1.0 - x) / falloff);
+    return smoothstep01(x / falloff) * smoothstep01((1.0 - x) / falloff);
 }
 
 }  // namespace
 
-double MuscleBulge::activation(double flexion, double full_flexion) { return smoothstep(flexion / full_flexion); }
+double MuscleBulge::activation(double flexion, double full_flexion) { return smoothstep01(flexion / full_flexion); }
 
 MuscleBulge::MuscleBulge(MuscleSpec spec, const Rig& rig, const SkinParts& parts, double falloff)
     : spec_(std::move(spec)) {

@@ -1,6 +1,7 @@
 #include "bind/bind.h"
 
 #include "bind/serialize.h"
+#include "math/smoothstep.h"
 
 #include <tbb/parallel_for.h>
 
@@ -161,15 +162,6 @@ Binding bind_vertices(const Rig& rig, int V, const float* positions, int S, cons
     b.rig_fingerprint = rig_fingerprint(rig);
     return b;
 }
-
-namespace {
-
-double smoothstep01(double x) {
-    x = std::clamp(x, 0.0, 1.0);
-    return x * x * (3.0 - 2.0 * x);
-}
-
-}  // namespace
 
 void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& b) {
     // A sweep's end key turns with half its joint's swing, which suits the limb's own cross

@@ -2,6 +2,7 @@
 
 #include "deform/frame_blend.h"
 #include "math/flush_denormals.h"
+#include "math/smoothstep.h"
 #include "rig/key_pose.h"
 #include "rig/trunk.h"
 
@@ -114,8 +115,8 @@ void point_influences(const Rig& rig, const Binding& b, std::vector<float>& poin
             if (of_arm) arm_share += b.bone_influences[i].weight;
         }
         if (!(arm && other)) continue;
-        const double x = std::clamp((arm_share - kArmShareFramesFrom) / (1.0 - kArmShareFramesFrom), 0.0, 1.0);
-        const float as_point = static_cast<float>(1.0 - x * x * (3.0 - 2.0 * x));
+        const float as_point =
+            static_cast<float>(1.0 - smoothstep01((arm_share - kArmShareFramesFrom) / (1.0 - kArmShareFramesFrom)));
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i)
             point_sweep[i] = sideways[b.sweep_influences[i].sweep] ? as_point : 0.0f;
         for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)

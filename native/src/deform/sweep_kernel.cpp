@@ -151,10 +151,6 @@ void add_rotation(float k, const float* q, float* j) {
     j[8] += k * (1 - 2 * (x * x + y * y));
 }
 
-void add_slot_turn(const float* t, float* j) {
-    for (int k = 0; k < 9; ++k) j[k] += t[k];
-}
-
 void add_slot_turn(float part, const float* t, float* j) {
     for (int k = 0; k < 9; ++k) j[k] += part * t[k];
 }
@@ -369,7 +365,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 const uint32_t s = rows_[i];
                 p += load4(p4 + 4 * static_cast<size_t>(s));
                 if constexpr (kJ)
-                    if (vertex_j) add_slot_turn(&turns_[9 * static_cast<size_t>(s)], j);
+                    if (vertex_j) add_slot_turn(1.0f, &turns_[9 * static_cast<size_t>(s)], j);
             }
             // The bones' matrices blended first, then applied once (as linear blend skinning
             // does): four 4-wide multiply-adds per bone; its 3x3 part is J's.

@@ -1,6 +1,7 @@
 #include "fit/regions.h"
 
 #include "bind/bind.h"
+#include "math/smoothstep.h"
 #include "rig/skeleton.h"
 
 #include <tbb/parallel_for.h>
@@ -37,11 +38,6 @@ std::vector<int> nearest_bones(const FitMesh& mesh, const Skeleton& s, const std
         }
     });
     return out;
-}
-
-double smoothstep01(double x) {
-    x = std::clamp(x, 0.0, 1.0);
-    return x * x * (3.0 - 2.0 * x);
 }
 
 /// Writes one vertex's sweep weights: entries below 1 % of the sweep part dropped, the
