@@ -19,6 +19,7 @@ up to date:
 * ``playback``: ``scene.frame_set(f)`` on a keyed action (frame_change_post).
 """
 
+import contextlib
 import os
 import statistics
 import sys
@@ -170,37 +171,60 @@ def add_shape_key(body, region="all"):
     kb.value = 1.0
 
 
+@contextlib.contextmanager
+def handler_out():
+    """The add-on's depsgraph handler removed for the block: updates evaluate Blender alone."""
+    from bl_ext.user_default.sweep_deform.blender import handlers
+    hooks = bpy.app.handlers.depsgraph_update_post
+    hooks.remove(handlers.on_depsgraph_update_post)
+    try:
+        yield
+    finally:
+        hooks.append(handlers.on_depsgraph_update_post)
+
+
+def carrier_of(body):
+    """(the body's Sweep Deform modifier, its viewport carrier, a copy of the offsets last written)."""
+    from bl_ext.user_default.sweep_deform.blender import deformer_cache, modifier
+    md = modifier.find(body)
+    e = deformer_cache.entry(body)
+    return md, modifier.carrier(body, md, e.deformer.vertex_count)[0], np.array(e.offsets, np.float32)
+
+
+def time_carrier_writes(carrier, offsets, n, warm=WARM):
+    """`view_layer.update()` timed after each of n rewrites of the carrier (`offsets` nudged
+    each time, in place), the first `warm` not recorded."""
+    from bl_ext.user_default.sweep_deform.blender import modifier
+    vl = bpy.context.view_layer
+    times = []
+    for i in range(n + warm):
+        offsets[0, 0] += 1e-7  # a write Blender cannot skip as unchanged
+        modifier.write_offsets(carrier, offsets)
+        t0 = time.perf_counter()
+        vl.update()
+        if i >= warm:
+            times.append(time.perf_counter() - t0)
+    return times
+
+
 def blender_share(body, arm, pose_list, n):
     """Blender's own part of a Sweep Deform frame, the add-on's handler out of the way: a pose
     change with no deform modifier on (the armature's evaluation), and an update after the
     carrier is rewritten with the same pose (the carrier's and the node group's evaluation: the
     per-vertex Sample Index and Set Position over the whole mesh)."""
-    from bl_ext.user_default.sweep_deform.blender import deformer_cache, handlers, modifier
     configure(body, 'sweep')
     time_posing(body, arm, pose_list[:WARM])
-    md = modifier.find(body)
-    e = deformer_cache.entry(body)
-    carrier = modifier.carrier(body, md, e.deformer.vertex_count)[0]
-    offsets = np.array(e.offsets, np.float32)
+    md, carrier, offsets = carrier_of(body)
     vl = bpy.context.view_layer
-    hooks = bpy.app.handlers.depsgraph_update_post
-    hooks.remove(handlers.on_depsgraph_update_post)
     try:
-        md.show_viewport = False
-        vl.update()
-        pose_only = time_posing(body, arm, (pose_list * (1 + n // len(pose_list)))[:n])
-        md.show_viewport = True
-        vl.update()
-        node_group = []
-        for i in range(n + WARM):
-            offsets[0, 0] += 1e-7  # a write Blender cannot skip as unchanged
-            modifier.write_offsets(carrier, offsets)
-            t0 = time.perf_counter()
+        with handler_out():
+            md.show_viewport = False
             vl.update()
-            if i >= WARM:
-                node_group.append(time.perf_counter() - t0)
+            pose_only = time_posing(body, arm, (pose_list * (1 + n // len(pose_list)))[:n])
+            md.show_viewport = True
+            vl.update()
+            node_group = time_carrier_writes(carrier, offsets, n)
     finally:
-        hooks.append(handlers.on_depsgraph_update_post)
         configure(body, 'sweep')
     return {'pose only': pose_only, 'node group': node_group}
 

@@ -19,7 +19,6 @@ Prints medians; never fails on speed.
 import os
 import statistics
 import sys
-import time
 
 import bpy
 import numpy as np
@@ -71,7 +70,7 @@ def variant(kind, modifier):
 def main():
     opts = measure_frame.args()
     install.install(opts["zip"])
-    from bl_ext.user_default.sweep_deform.blender import deformer_cache, handlers, modifier
+    from bl_ext.user_default.sweep_deform.blender import modifier
     for key in opts["characters"].split(","):
         loaded = measure_frame.load(key)
         if loaded is None:
@@ -82,37 +81,27 @@ def main():
         assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
         measure_frame.configure(body, 'sweep')
         measure_frame.time_posing(body, arm, measure_frame.poses(3, bones))
-        md = modifier.find(body)
-        e = deformer_cache.entry(body)
-        carrier = modifier.carrier(body, md, e.deformer.vertex_count)[0]
-        base = np.array(e.offsets, np.float32)
+        md, carrier, base = measure_frame.carrier_of(body)
         offsets = base.copy()
         vl = bpy.context.view_layer
         product = md.node_group
         kinds = ('least', 'one offset', 'unlinked index', 'through')
         groups = [("the product's", product)] + [(k, variant(k, modifier)) for k in kinds]
-        bpy.app.handlers.depsgraph_update_post.remove(handlers.on_depsgraph_update_post)
         times, shown = {label: [] for label, _ in groups}, {}
         try:
-            for _ in range(3):  # rounds, the groups taking turns
-                for label, ng in groups:
-                    md.node_group = ng
-                    modifier.set_carrier(md, carrier)
-                    vl.update()
-                    for i in range(opts["frames"] // 3 + 2):
-                        offsets[0, 0] += 1e-7  # a write Blender cannot skip as unchanged
-                        modifier.write_offsets(carrier, offsets)
-                        t0 = time.perf_counter()
+            with measure_frame.handler_out():
+                for _ in range(3):  # rounds, the groups taking turns
+                    for label, ng in groups:
+                        md.node_group = ng
+                        modifier.set_carrier(md, carrier)
                         vl.update()
-                        if i >= 2:
-                            times[label].append(time.perf_counter() - t0)
-                    modifier.write_offsets(carrier, base)  # the same offsets for every group
-                    vl.update()
-                    shown[label] = helpers.evaluated_positions(body)[0].copy()
+                        times[label] += measure_frame.time_carrier_writes(carrier, offsets, opts["frames"] // 3)
+                        modifier.write_offsets(carrier, base)  # the same offsets for every group
+                        vl.update()
+                        shown[label] = helpers.evaluated_positions(body)[0].copy()
         finally:
             md.node_group = product
             modifier.set_carrier(md, carrier)
-            bpy.app.handlers.depsgraph_update_post.append(handlers.on_depsgraph_update_post)
         print(f"\n{key}: {len(body.data.vertices):,} vertices; Blender {bpy.app.version_string}; "
               f"an update after a carrier write, median ms; the largest difference from the product's positions")
         for label, _ in groups:
