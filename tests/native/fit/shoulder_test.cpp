@@ -39,20 +39,23 @@ bool below(const Skeleton& s, int b, int root) {
     return false;
 }
 
+/// Bone b's matrix of a pose (#B*16 floats, column-major), and back.
+dmat4 pose_matrix(const std::vector<float>& pose, int b) {
+    dmat4 m;
+    for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = pose[16 * b + i];
+    return m;
+}
+void set_pose_matrix(std::vector<float>& pose, int b, const dmat4& m) {
+    for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(m[i / 4][i % 4]);
+}
+
 /// Turns the subtree of `bone` by `angle` about `axis` through the bone's head, on top of `pose`.
 void turn_subtree(const Skeleton& s, std::vector<float>& pose, int bone, const dvec3& axis, double angle) {
-    const auto get = [&](int b) {
-        dmat4 m;
-        for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = pose[16 * b + i];
-        return m;
-    };
-    const dvec3 joint = dvec3(get(bone) * s.rest_inverse[bone] * dvec4(s.heads[bone], 1.0));
+    const dvec3 joint = dvec3(pose_matrix(pose, bone) * s.rest_inverse[bone] * dvec4(s.heads[bone], 1.0));
     const dmat4 turn =
         glm::translate(dmat4(1.0), joint) * glm::rotate(dmat4(1.0), angle, axis) * glm::translate(dmat4(1.0), -joint);
     for (int b = 0; b < s.bone_count(); ++b) {
-        if (!below(s, b, bone)) continue;
-        const dmat4 p = turn * get(b);
-        for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(p[i / 4][i % 4]);
+        if (below(s, b, bone)) set_pose_matrix(pose, b, turn * pose_matrix(pose, b));
     }
 }
 
@@ -260,9 +263,7 @@ TEST_F(Armpit, TheArmsOwnSkinKeepsItsSectionAt160Degrees) {
     d->deform(pose.data(), out.data());
     character_fit::skin_linearly(c, s, pose.data(), lbs.data());
     const auto posed = [&](int bone, const dvec3& p) {
-        dmat4 m;
-        for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = pose[16 * bone + i];
-        return dvec3(m * s.rest_inverse[bone] * dvec4(p, 1.0));
+        return dvec3(pose_matrix(pose, bone) * s.rest_inverse[bone] * dvec4(p, 1.0));
     };
     for (int arm : arms) {
         // As the instrument slices: the triangles whose vertices the arm's bones dominate.
@@ -297,12 +298,7 @@ TEST_F(Armpit, TheWebTurnsRigidlyWithTheBody) {
     const dmat4 turn = glm::translate(dmat4(1.0), dvec3(0.3, -0.2, 0.1)) *
                        glm::rotate(dmat4(1.0), glm::radians(70.0), glm::normalize(dvec3(1.0, 2.0, 0.5)));
     std::vector<float> pose = io::rest_pose(c);
-    for (int b = 0; b < s.bone_count(); ++b) {
-        dmat4 m;
-        for (int i = 0; i < 16; ++i) m[i / 4][i % 4] = pose[16 * b + i];
-        const dmat4 p = turn * m;
-        for (int i = 0; i < 16; ++i) pose[16 * b + i] = static_cast<float>(p[i / 4][i % 4]);
-    }
+    for (int b = 0; b < s.bone_count(); ++b) set_pose_matrix(pose, b, turn * pose_matrix(pose, b));
     std::vector<float> out(c.positions.size()), frames(9 * static_cast<size_t>(V));
     d->deform_frames(pose.data(), out.data(), frames.data());
     double worst_position = 0.0, worst_map = 0.0;
