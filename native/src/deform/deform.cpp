@@ -5,6 +5,7 @@
 #include "math/smoothstep.h"
 #include "rig/key_pose.h"
 #include "rig/trunk.h"
+#include "rig/twisted_trajectory.h"
 
 #include <algorithm>
 #include <cmath>
@@ -442,10 +443,13 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             db[k] = b[k] - s.rest_half_axes.b[k];
         }
         const auto& q = g.key_rotations();
+        const std::vector<std::array<CubicSpan, 2>> twisted = has_twisted_trajectory(s)
+                                                                  ? twisted_trajectory(s, g, rest_key_rotations_[si])
+                                                                  : std::vector<std::array<CubicSpan, 2>>();
         for (int span = 0; span < s.span_count(); ++span)
             for (int half = 0; half < 2; ++half) {
                 HalfSpanKernel& kern = half_spans_[2 * static_cast<size_t>(span_base_[si] + span) + half];
-                const CubicSpan& c = g.center_span(span);
+                const CubicSpan& c = twisted.empty() ? g.center_span(span) : twisted[span][half];
                 for (int i = 0; i < 4; ++i)
                     for (int j = 0; j < 3; ++j) kern.c[i][j] = static_cast<float>(c.c[i][j]);
                 const dquat &q0 = q[span], &q1 = q[span + 1];

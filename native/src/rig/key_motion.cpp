@@ -137,6 +137,22 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
         }
     }
     if (thick) blend_thick_chain(keys, skeleton, blended, kThickChainTent * median(radii), motions);
+    // A limb whose last link twists: every key of it turns about its link or joint
+    // (twisted_trajectory.h). A rigid key's pivot is its center's foot on its link.
+    bool twists = false;
+    for (int k = 0; k < K; ++k) twists = twists || (!keys[k].is_joint_key() && motions[k].turns_about_pivot);
+    for (int k = 0; twists && k < K; ++k) {
+        KeyMotion& m = motions[k];
+        if (!m.blend.empty()) continue;
+        if (m.turns_about_pivot) {
+            m.twist_axis = m.axis;
+            continue;
+        }
+        const dvec3 d = links[k].end - links[k].start;
+        if (keys[k].is_joint_key() || !(glm::dot(d, d) > 0.0)) continue;
+        m.twist_axis = glm::normalize(d);
+        m.pivot = links[k].start + glm::dot(keys[k].center - links[k].start, m.twist_axis) * m.twist_axis;
+    }
     return motions;
 }
 

@@ -37,6 +37,11 @@ struct KeyMotion {
     /// centered off its joint (a spine key at its section's centroid) stays in its plane.
     bool turns_about_pivot = false;
     dvec3 pivot{0.0};
+    /// The keys of a limb whose last link twists: the rest axis the key's section turns about
+    /// (its link's direction; a joint key's normal), else zero; `pivot` is then the point on
+    /// it. Between keys the trajectory turns with the frame's twist about each key's axis
+    /// (twisted_trajectory.h) rather than cutting the chord between twisted centers.
+    dvec3 twist_axis{0.0};
 };
 
 /// A chain is thick when its intermediate keys' larger half-axis is at least this share of
