@@ -18,7 +18,8 @@
 // forearm's alone, the cardinal functions' negative lobes over the elbow's keys made it worse
 // (2.7 % -> 7.7 %). A bend about an axis across the keys' axes has no twist about them and
 // leaves the paper's cubic; a twist alone turns every section about the bone (1.8e-5).
-// Sampled four times a half-span and handed to the kernel as one cubic per half-span.
+// The correction, zero at the keys, is sampled five times a span and handed to the kernel
+// with the paper's cubic as one cubic per half-span.
 #pragma once
 
 #include "rig/rig.h"
