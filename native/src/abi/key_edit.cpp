@@ -6,7 +6,9 @@
 #include "deform/deform.h"
 #include "rig/key_pose.h"
 #include "rig/rig.h"
+#include "rig/twisted_trajectory.h"
 
+#include <array>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -274,11 +276,15 @@ sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t 
         sd::pose_keys(s, p, c, q);
         if (s.has_corrections) sd::correct_keys(s, p, c, q, h.a, h.b);
         const sd::SweepGeometry g(c, q);
+        // The trajectory the deformer gives the skin (a twisted limb's turns with its twist).
+        const std::vector<std::array<sd::CubicSpan, 2>> twisted =
+            sd::has_twisted_trajectory(s) ? sd::twisted_trajectory(s, g, s.rest_geometry.key_rotations())
+                                          : std::vector<std::array<sd::CubicSpan, 2>>();
         for (int i = 0; i < count; ++i) {
             int span;
             double uu;
             sd::split_parameter(g.span_count(), u[i], &span, &uu);
-            const sd::dvec3 ci = g.center(span, uu);
+            const sd::dvec3 ci = twisted.empty() ? g.center(span, uu) : twisted[span][uu < 0.5 ? 0 : 1].value(uu);
             const sd::dmat3 r = g.rotation(span, uu);
             const sd::dvec2 ab = h.at(span, uu);
             for (int j = 0; centers && j < 3; ++j) centers[3 * i + j] = static_cast<float>(ci[j]);
