@@ -47,8 +47,11 @@ struct Arm {
         float centers[21], orientations[28], half_axes[14], fractions[14];
         int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
         for (int k = 0; k < 7; ++k) {
+            // A centimetre off the bones, as a limb's sections are: a twist then turns each key's
+            // offset about its bone between keys (twisted_trajectory.h), not only its frame.
             centers[3 * k] = k / 3.0f;
-            centers[3 * k + 1] = centers[3 * k + 2] = 0.0f;
+            centers[3 * k + 1] = 0.01f;
+            centers[3 * k + 2] = 0.0f;
             for (int i = 0; i < 4; ++i) orientations[4 * k + i] = 0.5f;
             half_axes[2 * k] = 0.1f;
             half_axes[2 * k + 1] = 0.07f;

@@ -111,7 +111,7 @@ void rig_array_seeds(const sdfuzz::Arm& arm) {
     const int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
     o.put<uint8_t>(7);
     for (int k = 0; k < 7; ++k) {
-        o.put<float>(k / 3.0f).put<float>(0.0f).put<float>(0.0f);
+        o.put<float>(k / 3.0f).put<float>(0.01f).put<float>(0.0f);
         for (int i = 0; i < 4; ++i) o.put<float>(0.5f);
         o.put<float>(0.1f).put<float>(0.07f).put<float>(0.5f).put<float>(k == 6 ? 1.0f : 0.5f);
         o.put<int8_t>(static_cast<int8_t>(bones[k])).put<int8_t>(static_cast<int8_t>(joint_parents[k]));
