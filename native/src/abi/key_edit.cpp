@@ -277,9 +277,7 @@ sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t 
         if (s.has_corrections) sd::correct_keys(s, p, c, q, h.a, h.b);
         const sd::SweepGeometry g(c, q);
         // The trajectory the deformer gives the skin (a twisted limb's turns with its twist).
-        const std::vector<std::array<sd::CubicSpan, 2>> twisted =
-            sd::has_twisted_trajectory(s) ? sd::twisted_trajectory(s, g, s.rest_geometry.key_rotations())
-                                          : std::vector<std::array<sd::CubicSpan, 2>>();
+        const std::vector<std::array<sd::CubicSpan, 2>> twisted = sd::twisted_trajectory(s, g);
         for (int i = 0; i < count; ++i) {
             int span;
             double uu;

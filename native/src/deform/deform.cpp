@@ -443,9 +443,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             db[k] = b[k] - s.rest_half_axes.b[k];
         }
         const auto& q = g.key_rotations();
-        const std::vector<std::array<CubicSpan, 2>> twisted = has_twisted_trajectory(s)
-                                                                  ? twisted_trajectory(s, g, rest_key_rotations_[si])
-                                                                  : std::vector<std::array<CubicSpan, 2>>();
+        const std::vector<std::array<CubicSpan, 2>> twisted = twisted_trajectory(s, g);
         for (int span = 0; span < s.span_count(); ++span)
             for (int half = 0; half < 2; ++half) {
                 HalfSpanKernel& kern = half_spans_[2 * static_cast<size_t>(span_base_[si] + span) + half];

@@ -30,16 +30,9 @@ CubicSpan cubic_through(const std::array<dvec3, 4>& y, double u0, double h) {
 
 }  // namespace
 
-bool has_twisted_trajectory(const Sweep& sweep) {
-    for (const KeyMotion& m : sweep.motions)
-        if (m.twist_axis != dvec3(0.0)) return true;
-    return false;
-}
-
-std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const SweepGeometry& posed,
-                                                         const std::vector<dquat>& rest_rotations) {
+std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const SweepGeometry& posed) {
     const int K = s.key_count(), S = posed.span_count();
-    const SweepGeometry& rest = s.rest_geometry;
+    const SweepGeometry& rest = s.rest_geometry;  // the frames the binding was made in
     // Each key that turns about an axis: its posed turn R_k, and
     // what turning its posed offset O_k about its posed axis a_k takes (per frame sample, the
     // twist about a_k of Δ = R(u) R_rest(u)^-1 R_k^-1, in closed form: no square root).
@@ -56,7 +49,7 @@ std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const S
         if (m.twist_axis == dvec3(0.0)) continue;
         Turning t;
         t.key = k;
-        t.turn = glm::normalize(posed.key_rotations()[k] * glm::conjugate(rest_rotations[k]));
+        t.turn = glm::normalize(posed.key_rotations()[k] * glm::conjugate(rest.key_rotations()[k]));
         t.axis = glm::normalize(t.turn * m.twist_axis);
         const dvec3 tv(t.turn.x, t.turn.y, t.turn.z);
         t.turn_along_axis = glm::dot(tv, t.axis);
@@ -66,6 +59,7 @@ std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const S
         t.along = t.axis * glm::dot(t.axis, t.offset);
         turning.push_back(t);
     }
+    if (turning.empty()) return {};
     // The cardinal functions φ_k on the posed knots, three keys a spline (one per coordinate):
     // phi[(span * K + k) * 4 + i], power form in the span's u.
     std::vector<double> phi(static_cast<size_t>(S) * K * 4);

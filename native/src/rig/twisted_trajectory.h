@@ -29,13 +29,10 @@
 
 namespace sd {
 
-/// Whether any key of the sweep turns about its link (KeyMotion::twist_axis).
-bool has_twisted_trajectory(const Sweep& sweep);
-
 /// The trajectory above for `sweep` posed as `posed` (centers, after corrections and volume
-/// shifts; rotations), as one cubic in the span's u per half-span ([span][half]).
-/// @param rest_rotations  the uncorrected rest key rotations the binding was made in
-std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& sweep, const SweepGeometry& posed,
-                                                         const std::vector<dquat>& rest_rotations);
+/// shifts; rotations), as one cubic in the span's u per half-span ([span][half]); empty when no
+/// key of the sweep turns about its link (KeyMotion::twist_axis): the paper's cubic is then
+/// `posed`'s own.
+std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& sweep, const SweepGeometry& posed);
 
 }  // namespace sd

@@ -400,7 +400,6 @@ TEST(Deform, ConcurrentCallsOnOneDeformerGiveTheSerialResults) {
     EXPECT_EQ(mismatches.load(), 0);
 }
 
-}  // namespace
 TEST(Deform, TwistedForearmOffTheBoneKeepsItsSkinsDistanceFromTheBone) {
     // The arm's tube and keys 2 cm off the bones (a forearm's sections are centred off the
     // radius and ulna): the hand twisted by 90 and 180 degrees turns the forearm's sections
@@ -429,5 +428,7 @@ TEST(Deform, TwistedForearmOffTheBoneKeepsItsSkinsDistanceFromTheBone) {
         EXPECT_LT(worst, 1e-4) << degrees << " degrees";
     }
 }
+
+}  // namespace
 
 }  // namespace sd
