@@ -1,5 +1,7 @@
 #include "rig/key_motion.h"
 
+#include "math/smoothstep.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -154,6 +156,12 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
         m.pivot = links[k].start + glm::dot(keys[k].center - links[k].start, m.twist_axis) * m.twist_axis;
     }
     return motions;
+}
+
+double lowering_swing_share(const KeyMotion& m, const dquat& swing) {
+    if (m.lowering == dvec3(0.0)) return m.swing_share;
+    const double lowered = glm::dot(swing * m.axis - m.axis, m.lowering);
+    return m.swing_share + (m.lowering_share - m.swing_share) * smoothstep01(lowered / kFullLowering);
 }
 
 }  // namespace sd

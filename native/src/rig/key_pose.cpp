@@ -64,8 +64,8 @@ void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>&
         const dquat relative = glm::conjugate(from) * pose.rotation[m.to_bone];
         dquat swing, twist;
         swing_twist(relative, m.axis, &swing, &twist);
-        rotations[k] = glm::normalize(from * fraction_of(swing, m.swing_share) * fraction_of(twist, m.twist_share) *
-                                      e.orientation);
+        rotations[k] = glm::normalize(from * fraction_of(swing, lowering_swing_share(m, swing)) *
+                                      fraction_of(twist, m.twist_share) * e.orientation);
         if (m.turns_about_pivot) {
             const dvec3 pivot(pose.deform[e.bone] * dvec4(m.pivot, 1.0));
             centers[k] = pivot + glm::mat3_cast(rotations[k] * glm::conjugate(e.orientation)) * (e.center - m.pivot);

@@ -14,4 +14,13 @@ namespace sd {
 /// without one has no sideways sweep.
 std::vector<char> sweeps_leaving_trunk_sideways(const Rig& rig);
 
+/// The trunk's rest axis, from its first key's centre towards its last (unit), or zero where the
+/// rig has no trunk (no sweep that starts free with two keys or more).
+dvec3 trunk_axis(const Rig& rig);
+
+/// Sets each arm's shoulder key (the first key of a sweep leaving the trunk sideways) to take
+/// the whole swing as the arm is lowered towards the body's down (KeyMotion::lowering), and
+/// clears that on every other sweep. Called whenever the rig gains a sweep.
+void set_shoulder_lowering(Rig& rig);
+
 }  // namespace sd
