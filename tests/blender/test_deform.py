@@ -67,6 +67,40 @@ def test_bind_and_pose_elbows_and_knees(character):
     assert cache.peek(obj).frames == frames
 
 
+def test_a_rig_modelled_in_centimetres_deforms_as_in_metres():
+    """Many rigs come in centimetres under an object scale of 0.01 (FBX from other tools). The
+    same body so, bound with the product's fitting and posed alike, deforms to the same world
+    positions as in metres: nothing in the fitting, binding or deformation assumes metres."""
+    world = {}
+    for centimetres in (False, True):
+        char = helpers.load("fixture")
+        obj, arm = char.mesh, char.armature
+        before = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
+        if centimetres:
+            grow = mathutils.Matrix.Scale(100.0, 4)
+            arm.data.transform(grow)
+            obj.data.transform(grow)
+            arm.scale = (0.01, 0.01, 0.01)
+            if obj.parent != arm:
+                obj.scale = (0.01, 0.01, 0.01)
+            bpy.context.view_layer.update()
+            after = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
+            assert np.abs(after - before).max() < 1e-5 * helpers.diagonal(before)  # the same body
+        bpy.context.view_layer.objects.active = obj
+        obj.select_set(True)
+        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
+        assert obj.sweep_deform.state == 'BOUND'
+        helpers.pose_limbs(char, elbow=1.2, knee=1.1, shoulder=0.6)
+        bpy.context.view_layer.update()
+        co, _ = helpers.evaluated_positions(obj)
+        m = np.array(obj.matrix_world, np.float64)
+        world[centimetres] = co @ m[:3, :3].T + m[:3, 3]
+    diag = helpers.diagonal(world[False])
+    worst = np.linalg.norm(world[True] - world[False], axis=1).max()
+    print(f"centimetres against metres: worst vertex {worst / diag:.2e} of the diagonal")
+    assert worst < 1e-4 * diag
+
+
 def test_volume_settings_and_limb_volumes(character):
     helpers.use_test_rig([character])
     obj = helpers.bind(character)
