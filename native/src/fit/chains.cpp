@@ -179,28 +179,95 @@ std::string bone_label(const std::vector<std::string>& names, int b) {
 
 /// Splits a limb's main path into links and end bone: the upper and lower link are the two
 /// consecutive bones of largest summed length.
+/// The limb's path cut into segments: runs of bones that continue one another (each next one
+/// starting where the last ends and pointing the same way within kContinues). Rigify's
+/// DEF-upper_arm.L / .001, DAZ's bend and twist bones and MakeHuman's default lowerarm01 / 02
+/// cut one anatomical segment into two or more bones; without this the longest pair of bones
+/// was the clavicle and the upper arm's first half, and the forearm was left to the bones.
+/// No segment grows past kLongestSegment of the path, so an arm straight at the elbow (a
+/// T-pose) keeps its elbow: the shortest merges go first, and the halves of a segment are
+/// shorter than an arm straight through. Without a fan-out (a hand without fingers, a foot
+/// with one toe) the path's last bone is that extremity, never part of a segment: CesiumMan's
+/// hand continues its forearm straight.
+/// Returns each segment's first index into `path[0, count)` (each ends where the next begins).
+std::vector<int> limb_segments(const Tree& t, const std::vector<int>& path, int count, bool last_is_extremity) {
+    const double kContinues = std::cos(2.0 * 3.14159265358979323846 / 180.0);
+    constexpr double kLongestSegment = 0.6;
+    const auto length = [&](int from, int to) {  // bones path[from .. to)
+        double l = 0.0;
+        for (int i = from; i < to; ++i) l += t.length[path[i]];
+        return l;
+    };
+    const double total = length(0, count);
+    std::vector<int> starts(count);
+    for (int i = 0; i < count; ++i) starts[i] = i;
+    const auto continues = [&](int i) {  // bone path[i] continues path[i - 1]
+        if (last_is_extremity && i == count - 1) return false;
+        const int a = path[i - 1], b = path[i];
+        const dvec3 to_b = t.s.heads[b] - t.s.heads[a], along_b = t.pointing(b);
+        const double la = glm::length(to_b), lb = glm::length(along_b);
+        return la > 0.0 && lb > 0.0 && glm::length(t.s.tails[a] - t.s.heads[b]) <= 1e-3 * t.size &&
+               glm::dot(to_b, along_b) >= kContinues * la * lb;
+    };
+    for (;;) {
+        int best = -1;
+        double best_len = 0.0;
+        for (size_t k = 1; k < starts.size(); ++k) {
+            if (!continues(starts[k])) continue;
+            const int end = k + 1 < starts.size() ? starts[k + 1] : count;
+            const double merged = length(starts[k - 1], end);
+            if (merged <= kLongestSegment * total && (best < 0 || merged < best_len)) {
+                best = static_cast<int>(k);
+                best_len = merged;
+            }
+        }
+        if (best < 0) return starts;
+        starts.erase(starts.begin() + best);
+    }
+}
+
 void split_limb(const Tree& t, int root, Chain* chain) {
     int fan_out = -1;
     std::vector<int> path = t.main_path(root, &fan_out);
     if (fan_out >= 0) path.push_back(fan_out);
     // The pair search stops before the fan-out bone (the hand itself is never a link).
     const int searchable = static_cast<int>(path.size()) - (fan_out >= 0 ? 1 : 0);
+    const std::vector<int> starts = limb_segments(t, path, searchable, fan_out < 0);
+    const int n = static_cast<int>(starts.size());
+    const auto segment_end = [&](int k) { return k + 1 < n ? starts[k + 1] : searchable; };
+    const auto segment_length = [&](int k) {
+        double l = 0.0;
+        for (int i = starts[k]; i < segment_end(k); ++i) l += t.length[path[i]];
+        return l;
+    };
     int best = 0;
     double best_len = -1.0;
-    for (int i = 0; i + 1 < searchable; ++i) {
-        const double len = t.length[path[i]] + t.length[path[i + 1]];
+    for (int k = 0; k + 1 < n; ++k) {
+        const double len = segment_length(k) + segment_length(k + 1);
         if (len > best_len + 1e-9 * t.size) {
             best_len = len;
-            best = i;
+            best = k;
         }
     }
-    const int last = std::min(best + 1, searchable - 1);
+    const int last = (n >= 2 ? segment_end(best + 1) : segment_end(0)) - 1;
     chain->bones.assign(path.begin(), path.begin() + last + 1);
-    chain->first_swept = best;
+    chain->first_swept = starts[best];
     chain->end_bone = last + 1 < static_cast<int>(path.size()) ? path[last + 1] : -1;
+    chain->continues.assign(chain->bones.size(), 0);
+    bool any = false;
+    for (int i = chain->first_swept + 1; i <= last; ++i)
+        if (std::find(starts.begin(), starts.end(), i) == starts.end()) chain->continues[i] = 1, any = true;
+    if (!any) chain->continues.clear();
 }
 
 }  // namespace
+
+std::vector<int> Chain::links() const {
+    std::vector<int> out;
+    for (size_t i = static_cast<size_t>(std::max(first_swept, 0)); i < bones.size(); ++i)
+        if (out.empty() || i >= continues.size() || !continues[i]) out.push_back(bones[i]);
+    return out;
+}
 
 ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, const std::vector<double>& bone_mass) {
     const Tree t(s, bone_mass);

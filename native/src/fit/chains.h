@@ -26,6 +26,13 @@ struct Chain {
     int end_bone = -1;      ///< the bone beyond the last link (hand, foot, head, neck), or -1
     int parent_chain = -1;  ///< the chain it hangs from (limbs, neck: the torso), or -1
     int joint_parent = -1;  ///< upper link of the sweep's first joint (clavicle, pelvis), or -1
+    /// Per bone, 1 where it continues the bone before it as one anatomical segment (Rigify's
+    /// DEF-forearm.L.001, DAZ's twist bones, MakeHuman's lowerarm02.L); empty when none does.
+    /// The sweep takes each segment as one link that rides the segment's first bone.
+    std::vector<char> continues;
+
+    /// The swept links: the first bone of each segment, from bones[first_swept] on.
+    std::vector<int> links() const;
 };
 
 /// Body axes found from the skeleton: up from the hips to the head, left from the legs,
@@ -47,9 +54,10 @@ struct ChainSet {
 ///    the branch holding most extremities is the spine, the others are the legs.
 ///  - The spine is followed from the hips towards the head, at each bone taking the child
 ///    whose far end is nearest the body's mid-plane; long side branches are the arms.
-///  - Along an arm or a leg, the upper and lower link are the two consecutive bones with the
-///    largest summed length; bones before them are a clavicle (or hip bone), the next bone
-///    is the hand (foot). A bone with three or more children (fingers) ends the search.
+///  - Along an arm or a leg, bones that continue one another straight are one segment (a
+///    limb bone cut in two); the upper and lower link are the two consecutive segments with
+///    the largest summed length; bones before them are a clavicle (or hip bone), the next
+///    bone is the hand (foot). A bone with three or more children (fingers) ends the search.
 ///  - The head is the bone after the neck with the most skin weight (or a bone named
 ///    "head", or the second bone after the chest).
 /// @param names      #B bone names, or empty (only hints: sides, head)

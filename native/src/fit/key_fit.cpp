@@ -50,21 +50,22 @@ double angle_between(const dvec3& a, const dvec3& b) { return std::acos(std::cla
 /// joints coincide.
 dvec3 first_link_direction(const Skeleton& s, const ChainSet& set, int bone) {
     for (const Chain& c : set.chains) {
-        if (c.bones.size() <= static_cast<size_t>(c.first_swept) || c.bones[c.first_swept] != bone) continue;
-        const size_t next = static_cast<size_t>(c.first_swept) + 1;
+        const std::vector<int> links = c.links();
+        if (links.empty() || links[0] != bone) continue;
         const dvec3 to =
-            next < c.bones.size() ? s.heads[c.bones[next]] : (c.end_bone >= 0 ? s.heads[c.end_bone] : s.tails[bone]);
+            links.size() > 1 ? s.heads[links[1]] : (c.end_bone >= 0 ? s.heads[c.end_bone] : s.tails[c.bones.back()]);
         if (glm::length(to - s.heads[bone]) > 1e-4 * set.size) return to - s.heads[bone];
     }
     return s.tails[bone] - s.heads[bone];
 }
 
 std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Chain& ch, const KeyOptions& opt) {
-    const std::vector<int> links(ch.bones.begin() + ch.first_swept, ch.bones.end());
+    // A segment cut into several bones is one link, riding its first bone.
+    const std::vector<int> links = ch.links();
     const int m = static_cast<int>(links.size());
     std::vector<dvec3> joint(m + 1);
     for (int i = 0; i < m; ++i) joint[i] = s.heads[links[i]];
-    joint[m] = ch.end_bone >= 0 ? s.heads[ch.end_bone] : s.tails[links.back()];
+    joint[m] = ch.end_bone >= 0 ? s.heads[ch.end_bone] : s.tails[ch.bones.back()];
     std::vector<dvec3> dir(m);
     std::vector<double> len(m);
     for (int i = 0; i < m; ++i) {

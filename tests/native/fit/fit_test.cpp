@@ -760,6 +760,115 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
     check_character(t, kMakeHuman, "makehuman_t_pose", true);
 }
 
+/// `c` with each named bone cut in two chained halves, as Rigify's DEF-upper_arm.L / .001
+/// (and DAZ's bend and twist bones, MakeHuman's default lowerarm01 / 02) cut a limb bone: the
+/// first half keeps the name, the second is NAME.001 and takes the bone's children; a vertex's
+/// weight on the bone passes to the second half along it (smoothstep over its middle half),
+/// where the vertex has a free weight slot.
+io::Character cut_in_two(const io::Character& c, const std::vector<std::string>& names) {
+    io::Character t = c;
+    const int V = static_cast<int>(c.positions.size() / 3);
+    for (const std::string& name : names) {
+        const int b = character_fit::bone_named(t, name);
+        EXPECT_GE(b, 0) << name;
+        if (b < 0) continue;
+        const int half = static_cast<int>(t.bone_names.size());
+        const dvec3 head(t.bone_heads[3 * b], t.bone_heads[3 * b + 1], t.bone_heads[3 * b + 2]);
+        const dvec3 tail(t.bone_tails[3 * b], t.bone_tails[3 * b + 1], t.bone_tails[3 * b + 2]);
+        const dvec3 mid = 0.5 * (head + tail);
+        for (int& p : t.bone_parents)
+            if (p == b) p = half;
+        t.bone_names.push_back(name + ".001");
+        t.bone_parents.push_back(b);
+        for (int i = 0; i < 16; ++i) t.bone_rest.push_back(t.bone_rest[16 * b + i]);
+        for (int i = 0; i < 3; ++i) t.bone_rest[16 * half + 12 + i] = static_cast<float>(mid[i]);
+        for (int i = 0; i < 3; ++i) t.bone_heads.push_back(static_cast<float>(mid[i]));
+        for (int i = 0; i < 3; ++i) t.bone_tails.push_back(static_cast<float>(tail[i]));
+        for (int i = 0; i < 3; ++i) t.bone_tails[3 * b + i] = static_cast<float>(mid[i]);
+        for (int v = 0; v < V; ++v) {
+            int* joints = &t.skin_joints[4 * v];
+            float* weights = &t.skin_weights[4 * v];
+            int on = -1, free = -1;
+            for (int i = 0; i < 4; ++i) {
+                if (joints[i] == b && weights[i] > 0.0f) on = i;
+                if (weights[i] == 0.0f && free < 0) free = i;
+            }
+            if (on < 0 || free < 0) continue;
+            const dvec3 p(t.positions[3 * v], t.positions[3 * v + 1], t.positions[3 * v + 2]);
+            const double along = glm::dot(p - head, tail - head) / glm::dot(tail - head, tail - head);
+            const double x = std::clamp((along - 0.25) / 0.5, 0.0, 1.0);
+            const float second = weights[on] * static_cast<float>(x * x * (3.0 - 2.0 * x));
+            weights[on] -= second;
+            joints[free] = half;
+            weights[free] = second;
+        }
+    }
+    return t;
+}
+
+// A limb bone cut in two (Rigify, DAZ, MakeHuman's default rig) is one link: before, the arm's
+// links were the longest pair of bones, the clavicle and the upper arm's first half, and the
+// forearm was left to the bones (skineval on MakeHuman so cut: elbow volume -3.7 to -8.4 %, the
+// forearm twisted 180 degrees kept 0.47 of its section). Each cut is found from the skeleton
+// alone (the halves continue one another), and the sweep is the uncut body's.
+TEST(FitCharacterVariants, LimbBonesCutInTwoAreOneLink) {
+    const std::string path = data_file(kMakeHuman.file);
+    REQUIRE_DATA(path);
+    const io::Character whole = io::load_gltf_character(path);
+    const io::Character cut = cut_in_two(
+        whole, {"upperarm_l", "lowerarm_l", "thigh_l", "calf_l", "upperarm_r", "lowerarm_r", "thigh_r", "calf_r"});
+    CharacterCase cc = kMakeHuman;
+    cc.chains["arm_l"] = {{"clavicle_l", "upperarm_l", "upperarm_l.001", "lowerarm_l", "lowerarm_l.001"}, "hand_l"};
+    cc.chains["arm_r"] = {{"clavicle_r", "upperarm_r", "upperarm_r.001", "lowerarm_r", "lowerarm_r.001"}, "hand_r"};
+    cc.chains["leg_l"] = {{"thigh_l", "thigh_l.001", "calf_l", "calf_l.001"}, "foot_l"};
+    cc.chains["leg_r"] = {{"thigh_r", "thigh_r.001", "calf_r", "calf_r.001"}, "foot_r"};
+    check_character(cut, cc, "makehuman_cut_limbs", true);
+
+    // The same sweeps as the uncut body: the same joint keys, and the same skin in a bent
+    // elbow and knee and a twisted wrist (the halves follow their parents).
+    const auto fitted = [](const io::Character& c) {
+        const Skeleton s = skeleton_of(c);
+        auto r = std::make_unique<fit::FitResult>(fit::fit_rig(character_input(c, s)));
+        const int V = static_cast<int>(c.positions.size() / 3);
+        auto d = std::make_unique<Deformer>(r->rig, character_fit::bind_fitted(*r, V, c.positions.data()));
+        return std::make_pair(std::move(r), std::move(d));
+    };
+    const auto [rw, dw] = fitted(whole);
+    const auto [rc, dc] = fitted(cut);
+    ASSERT_EQ(rw->rig.sweeps.size(), rc->rig.sweeps.size());
+    for (size_t i = 0; i < rw->rig.sweeps.size(); ++i) {
+        const auto& kw = rw->rig.sweeps[i].keys;
+        const auto& kc = rc->rig.sweeps[i].keys;
+        ASSERT_EQ(kw.size(), kc.size()) << "sweep " << i;
+        for (size_t k = 0; k < kw.size(); ++k) {
+            EXPECT_LT(glm::length(kw[k].center - kc[k].center), 1e-6) << "sweep " << i << " key " << k;
+            EXPECT_EQ(kw[k].is_joint_key(), kc[k].is_joint_key()) << "sweep " << i << " key " << k;
+        }
+    }
+    const Skeleton sw = skeleton_of(whole), sc = skeleton_of(cut);
+    const double diag = diagonal(whole.positions);
+    const dvec3 left = rw->chains.frame.left;
+    struct Move {
+        const char* bone;
+        dvec3 axis;
+        double angle;
+    };
+    for (const Move& m : {Move{"lowerarm_l", left, M_PI / 2}, Move{"calf_l", left, M_PI / 2},
+                          Move{"hand_l",
+                               glm::normalize(sw.heads[character_fit::bone_named(whole, "hand_l")] -
+                                              sw.heads[character_fit::bone_named(whole, "lowerarm_l")]),
+                               M_PI}}) {
+        const auto pose_w = bend_pose(sw, character_fit::bone_named(whole, m.bone), m.axis, m.angle);
+        const auto pose_c = bend_pose(sc, character_fit::bone_named(cut, m.bone), m.axis, m.angle);
+        std::vector<float> ow(whole.positions.size()), oc(cut.positions.size());
+        dw->deform(pose_w.data(), ow.data());
+        dc->deform(pose_c.data(), oc.data());
+        const double worst = max_distance(ow, oc);
+        std::printf("%s turned: cut limbs against whole, worst vertex %.2e x diagonal\n", m.bone, worst / diag);
+        EXPECT_LT(worst, 1e-6 * diag) << m.bone;
+    }
+}
+
 /// glTF stores joints, not bones: an importer points every bone one way (CesiumMan's all
 /// along the body's side). The fit must read the body from the joints: the feet give the front
 /// and so the sides, and the torso's end key, where the neck starts, follows the neck as its

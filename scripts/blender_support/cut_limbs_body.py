@@ -1,0 +1,67 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""A rig convention the shared data does not have: each upper arm, forearm, thigh and shin cut
+in two chained bones, as Rigify's deform bones (DEF-upper_arm.L, DEF-upper_arm.L.001), DAZ's bend
+and twist bones and MakeHuman's default rig (lowerarm01.L, lowerarm02.L) cut them, for
+scripts/quality. The first half keeps the bone's name, the second is NAME.001 and takes its
+children; a vertex's weight on the bone passes to the second half along it (smoothstep over its
+middle half). The source file is only read; the result is written elsewhere.
+
+    blender -b --factory-startup --python scripts/blender_support/cut_limbs_body.py -- SOURCE OUT
+"""
+
+import sys
+
+import bpy
+
+LIMB_BONES = [f"{bone}_{side}" for side in ("l", "r") for bone in ("upperarm", "lowerarm", "thigh", "calf")]
+
+
+def smoothstep(x):
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def main():
+    source, out = sys.argv[sys.argv.index("--") + 1:][:2]
+    bpy.ops.wm.open_mainfile(filepath=source)
+    bodies = [o for o in bpy.data.objects if o.type == "MESH" and o.find_armature()]
+    if len(bodies) != 1:
+        raise SystemExit(f"cut_limbs_body: {source} has {len(bodies)} rigged meshes, expected one")
+    body = bodies[0]
+    armature = body.find_armature()
+    missing = [n for n in LIMB_BONES if n not in armature.data.bones or n not in body.vertex_groups]
+    if missing:
+        raise SystemExit(f"cut_limbs_body: no bone or vertex group {missing}")
+    ends = {n: (armature.data.bones[n].head_local.copy(), armature.data.bones[n].tail_local.copy())
+            for n in LIMB_BONES}
+
+    bpy.context.view_layer.objects.active = armature
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == armature)
+    bpy.ops.object.mode_set(mode="EDIT")
+    for eb in armature.data.edit_bones:
+        eb.select = eb.select_head = eb.select_tail = eb.name in LIMB_BONES
+    bpy.ops.armature.subdivide(number_cuts=1)
+    bpy.ops.object.mode_set(mode="OBJECT")
+
+    # Bone ends in armature space; the mesh's vertices taken there too.
+    to_armature = armature.matrix_world.inverted() @ body.matrix_world
+    for name in LIMB_BONES:
+        first = body.vertex_groups[name]
+        second = body.vertex_groups.new(name=name + ".001")
+        head, tail = ends[name]
+        d = tail - head
+        for v in body.data.vertices:
+            for g in v.groups:
+                if g.group != first.index or g.weight <= 0.0:
+                    continue
+                along = ((to_armature @ v.co) - head).dot(d) / d.length_squared
+                w = g.weight * smoothstep((along - 0.25) / 0.5)
+                second.add([v.index], w, 'REPLACE')
+                first.add([v.index], g.weight - w, 'REPLACE')
+    print(f"cut_limbs_body: {len(LIMB_BONES)} bones cut in two "
+          f"({', '.join(n + '.001' for n in LIMB_BONES if n + '.001' in armature.data.bones)})")
+    bpy.ops.wm.save_as_mainfile(filepath=out)
+
+
+main()
