@@ -120,17 +120,35 @@ struct Tree {
         visit(visit, b);
         return best;
     }
-    /// Following the child of largest reach from b down to a leaf, or to a bone with three
-    /// or more real children (a hand with fingers, a foot with toes), which ends the path.
+    /// Following the child whose subtree reaches farthest from b's head, down to a leaf or to
+    /// a bone with three or more real children (a hand with fingers, a foot with toes), which
+    /// ends the path. Farthest, not longest: a twist bone hung beside a limb's link (Unreal's
+    /// calf_twist_01_l, half a shin long) can be longer than the foot and its toe together,
+    /// but the foot reaches past it.
     std::vector<int> main_path(int b, int* fan_out) const {
         std::vector<int> path{b};
         *fan_out = -1;
+        // How far each subtree reaches from b's head (one pass, children before parents).
+        const dvec3 origin = s.heads[b];
+        std::vector<double> far_of(count, 0.0);
+        for (auto it = order.rbegin(); it != order.rend(); ++it) {
+            const int x = *it;
+            double f = std::max(glm::length(s.heads[x] - origin), glm::length(s.tails[x] - origin));
+            for (int c : children[x]) f = std::max(f, far_of[c]);
+            far_of[x] = f;
+        }
         for (int cur = b;;) {
             int real_children = 0, best = -1;
+            double best_far = -1.0;
             for (int c : children[cur]) {
                 if (!deforms(c)) continue;
                 if (reach[c] > 0.0) ++real_children;
-                if (best < 0 || reach[c] > reach[best]) best = c;
+                const double far = far_of[c];
+                if (best < 0 || far > best_far + 1e-9 * size ||
+                    (far > best_far - 1e-9 * size && reach[c] > reach[best])) {
+                    best = c;
+                    best_far = far;
+                }
             }
             if (real_children >= 3 && path.size() > 1) {
                 path.pop_back();

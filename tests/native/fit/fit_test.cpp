@@ -806,6 +806,77 @@ io::Character cut_in_two(const io::Character& c, const std::vector<std::string>&
     return t;
 }
 
+/// `c` with a twist bone hung beside each named bone, as Unreal's mannequin has them
+/// (lowerarm_twist_01_l): a child of the bone over its distal half (`distal`) or its
+/// proximal half, taking half of the bone's skin weight where it lies (where the vertex has a
+/// free weight slot).
+io::Character with_twist_bones(const io::Character& c, const std::vector<std::pair<std::string, bool>>& bones) {
+    io::Character t = c;
+    const int V = static_cast<int>(c.positions.size() / 3);
+    for (const auto& [name, distal] : bones) {
+        const int b = character_fit::bone_named(t, name);
+        EXPECT_GE(b, 0) << name;
+        if (b < 0) continue;
+        const int twist = static_cast<int>(t.bone_names.size());
+        const dvec3 head(t.bone_heads[3 * b], t.bone_heads[3 * b + 1], t.bone_heads[3 * b + 2]);
+        const dvec3 tail(t.bone_tails[3 * b], t.bone_tails[3 * b + 1], t.bone_tails[3 * b + 2]);
+        const dvec3 from = distal ? 0.5 * (head + tail) : head, to = distal ? tail : 0.5 * (head + tail);
+        t.bone_names.push_back(name + "_twist_01");
+        t.bone_parents.push_back(b);
+        for (int i = 0; i < 16; ++i) t.bone_rest.push_back(t.bone_rest[16 * b + i]);
+        for (int i = 0; i < 3; ++i) t.bone_rest[16 * twist + 12 + i] = static_cast<float>(from[i]);
+        for (int i = 0; i < 3; ++i) t.bone_heads.push_back(static_cast<float>(from[i]));
+        for (int i = 0; i < 3; ++i) t.bone_tails.push_back(static_cast<float>(to[i]));
+        for (int v = 0; v < V; ++v) {
+            int* joints = &t.skin_joints[4 * v];
+            float* weights = &t.skin_weights[4 * v];
+            int on = -1, free = -1;
+            for (int i = 0; i < 4; ++i) {
+                if (joints[i] == b && weights[i] > 0.0f) on = i;
+                if (weights[i] == 0.0f && free < 0) free = i;
+            }
+            if (on < 0 || free < 0) continue;
+            const dvec3 p(t.positions[3 * v], t.positions[3 * v + 1], t.positions[3 * v + 2]);
+            const double along = glm::dot(p - head, tail - head) / glm::dot(tail - head, tail - head);
+            if ((along > 0.5) != distal) continue;
+            const float share = 0.5f * weights[on];
+            weights[on] -= share;
+            joints[free] = twist;
+            weights[free] = share;
+        }
+    }
+    return t;
+}
+
+/// Fits `a` and `b` (the same mesh under two rigs) and returns the worst distance between
+/// their deformations when each of `moves` (bone, axis, angle) is applied, over the diagonal.
+struct Move {
+    const char* bone;
+    dvec3 axis;
+    double angle;
+};
+double worst_difference(const io::Character& a, const io::Character& b, const std::vector<Move>& moves) {
+    const auto deformer = [](const io::Character& c) {
+        const fit::FitResult r = fit::fit_rig(character_input(c, skeleton_of(c)));
+        const int V = static_cast<int>(c.positions.size() / 3);
+        return std::make_unique<Deformer>(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
+    };
+    const auto da = deformer(a), db = deformer(b);
+    const Skeleton sa = skeleton_of(a), sb = skeleton_of(b);
+    double worst = 0.0;
+    for (const Move& m : moves) {
+        const auto pa = bend_pose(sa, character_fit::bone_named(a, m.bone), m.axis, m.angle);
+        const auto pb = bend_pose(sb, character_fit::bone_named(b, m.bone), m.axis, m.angle);
+        std::vector<float> oa(a.positions.size()), ob(b.positions.size());
+        da->deform(pa.data(), oa.data());
+        db->deform(pb.data(), ob.data());
+        const double d = max_distance(oa, ob) / diagonal(a.positions);
+        std::printf("  %s turned: worst vertex %.2e x diagonal\n", m.bone, d);
+        worst = std::max(worst, d);
+    }
+    return worst;
+}
+
 // A limb bone cut in two (Rigify, DAZ, MakeHuman's default rig) is one link: before, the arm's
 // links were the longest pair of bones, the clavicle and the upper arm's first half, and the
 // forearm was left to the bones (skineval on MakeHuman so cut: elbow volume -3.7 to -8.4 %, the
@@ -824,17 +895,10 @@ TEST(FitCharacterVariants, LimbBonesCutInTwoAreOneLink) {
     cc.chains["leg_r"] = {{"thigh_r", "thigh_r.001", "calf_r", "calf_r.001"}, "foot_r"};
     check_character(cut, cc, "makehuman_cut_limbs", true);
 
-    // The same sweeps as the uncut body: the same joint keys, and the same skin in a bent
-    // elbow and knee and a twisted wrist (the halves follow their parents).
-    const auto fitted = [](const io::Character& c) {
-        const Skeleton s = skeleton_of(c);
-        auto r = std::make_unique<fit::FitResult>(fit::fit_rig(character_input(c, s)));
-        const int V = static_cast<int>(c.positions.size() / 3);
-        auto d = std::make_unique<Deformer>(r->rig, character_fit::bind_fitted(*r, V, c.positions.data()));
-        return std::make_pair(std::move(r), std::move(d));
-    };
-    const auto [rw, dw] = fitted(whole);
-    const auto [rc, dc] = fitted(cut);
+    // The same sweeps as the uncut body: the same keys, and the same skin in a bent elbow
+    // and knee and a twisted wrist (the halves follow their parents).
+    const auto rw = std::make_unique<fit::FitResult>(fit::fit_rig(character_input(whole, skeleton_of(whole))));
+    const auto rc = std::make_unique<fit::FitResult>(fit::fit_rig(character_input(cut, skeleton_of(cut))));
     ASSERT_EQ(rw->rig.sweeps.size(), rc->rig.sweeps.size());
     for (size_t i = 0; i < rw->rig.sweeps.size(); ++i) {
         const auto& kw = rw->rig.sweeps[i].keys;
@@ -845,28 +909,39 @@ TEST(FitCharacterVariants, LimbBonesCutInTwoAreOneLink) {
             EXPECT_EQ(kw[k].is_joint_key(), kc[k].is_joint_key()) << "sweep " << i << " key " << k;
         }
     }
-    const Skeleton sw = skeleton_of(whole), sc = skeleton_of(cut);
-    const double diag = diagonal(whole.positions);
+    const Skeleton sw = skeleton_of(whole);
     const dvec3 left = rw->chains.frame.left;
-    struct Move {
-        const char* bone;
-        dvec3 axis;
-        double angle;
-    };
-    for (const Move& m : {Move{"lowerarm_l", left, M_PI / 2}, Move{"calf_l", left, M_PI / 2},
-                          Move{"hand_l",
-                               glm::normalize(sw.heads[character_fit::bone_named(whole, "hand_l")] -
-                                              sw.heads[character_fit::bone_named(whole, "lowerarm_l")]),
-                               M_PI}}) {
-        const auto pose_w = bend_pose(sw, character_fit::bone_named(whole, m.bone), m.axis, m.angle);
-        const auto pose_c = bend_pose(sc, character_fit::bone_named(cut, m.bone), m.axis, m.angle);
-        std::vector<float> ow(whole.positions.size()), oc(cut.positions.size());
-        dw->deform(pose_w.data(), ow.data());
-        dc->deform(pose_c.data(), oc.data());
-        const double worst = max_distance(ow, oc);
-        std::printf("%s turned: cut limbs against whole, worst vertex %.2e x diagonal\n", m.bone, worst / diag);
-        EXPECT_LT(worst, 1e-6 * diag) << m.bone;
-    }
+    const dvec3 forearm = glm::normalize(sw.heads[character_fit::bone_named(whole, "hand_l")] -
+                                         sw.heads[character_fit::bone_named(whole, "lowerarm_l")]);
+    const double worst = worst_difference(
+        whole, cut, {{"lowerarm_l", left, M_PI / 2}, {"calf_l", left, M_PI / 2}, {"hand_l", forearm, M_PI}});
+    EXPECT_LT(worst, 1e-6);
+}
+
+// Twist bones hung beside a limb's links (Unreal's upperarm_twist_01_l, calf_twist_01_l) are
+// not links: the limb runs on to the hand and the foot, the twist bones' skin weight goes to
+// the sweep of the link they hang from, and the body deforms as without them. Before, a
+// calf's twist bone over the shin's lower half was taken for the leg's next bone (it reached
+// farther than the foot and its toe together): the leg's sweep ended halfway down the shin.
+TEST(FitCharacterVariants, TwistBonesBesideTheLinksAreNotLinks) {
+    const std::string path = data_file(kMakeHuman.file);
+    REQUIRE_DATA(path);
+    const io::Character whole = io::load_gltf_character(path);
+    std::vector<std::pair<std::string, bool>> twists;
+    for (const char* side : {"_l", "_r"})
+        for (const auto& [bone, distal] :
+             {std::pair<const char*, bool>{"upperarm", false}, {"lowerarm", true}, {"thigh", false}, {"calf", true}})
+            twists.push_back({std::string(bone) + side, distal});
+    const io::Character twisted = with_twist_bones(whole, twists);
+    check_character(twisted, kMakeHuman, "makehuman_twist_bones", true);
+    const Skeleton s = skeleton_of(whole);
+    const fit::FitResult r = fit::fit_rig(character_input(whole, s));
+    const dvec3 left = r.chains.frame.left;
+    const dvec3 forearm = glm::normalize(s.heads[character_fit::bone_named(whole, "hand_l")] -
+                                         s.heads[character_fit::bone_named(whole, "lowerarm_l")]);
+    const double worst = worst_difference(
+        whole, twisted, {{"lowerarm_l", left, M_PI / 2}, {"calf_l", left, M_PI / 2}, {"hand_l", forearm, M_PI}});
+    EXPECT_LT(worst, 1e-6);
 }
 
 /// glTF stores joints, not bones: an importer points every bone one way (CesiumMan's all
