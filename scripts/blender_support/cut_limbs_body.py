@@ -21,32 +21,25 @@ def smoothstep(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-def main():
-    source, out = sys.argv[sys.argv.index("--") + 1:][:2]
-    bpy.ops.wm.open_mainfile(filepath=source)
-    bodies = [o for o in bpy.data.objects if o.type == "MESH" and o.find_armature()]
-    if len(bodies) != 1:
-        raise SystemExit(f"cut_limbs_body: {source} has {len(bodies)} rigged meshes, expected one")
-    body = bodies[0]
-    armature = body.find_armature()
-    missing = [n for n in LIMB_BONES if n not in armature.data.bones or n not in body.vertex_groups]
+def cut_in_two(body, armature, names):
+    """Cuts each bone of `names` into two chained halves (Blender's Subdivide; the second half is
+    NAME.001 and takes the bone's children) and passes a vertex's weight on it to the second half
+    along the bone (smoothstep over its middle half). Leaves Object Mode active."""
+    missing = [n for n in names if n not in armature.data.bones or n not in body.vertex_groups]
     if missing:
-        raise SystemExit(f"cut_limbs_body: no bone or vertex group {missing}")
-    ends = {n: (armature.data.bones[n].head_local.copy(), armature.data.bones[n].tail_local.copy())
-            for n in LIMB_BONES}
-
+        raise ValueError(f"no bone or vertex group {missing}")
+    ends = {n: (armature.data.bones[n].head_local.copy(), armature.data.bones[n].tail_local.copy()) for n in names}
     bpy.context.view_layer.objects.active = armature
     for o in bpy.context.view_layer.objects:
         o.select_set(o == armature)
     bpy.ops.object.mode_set(mode="EDIT")
     for eb in armature.data.edit_bones:
-        eb.select = eb.select_head = eb.select_tail = eb.name in LIMB_BONES
+        eb.select = eb.select_head = eb.select_tail = eb.name in names
     bpy.ops.armature.subdivide(number_cuts=1)
     bpy.ops.object.mode_set(mode="OBJECT")
-
     # Bone ends in armature space; the mesh's vertices taken there too.
     to_armature = armature.matrix_world.inverted() @ body.matrix_world
-    for name in LIMB_BONES:
+    for name in names:
         first = body.vertex_groups[name]
         second = body.vertex_groups.new(name=name + ".001")
         head, tail = ends[name]
@@ -59,9 +52,24 @@ def main():
                 w = g.weight * smoothstep((along - 0.25) / 0.5)
                 second.add([v.index], w, 'REPLACE')
                 first.add([v.index], g.weight - w, 'REPLACE')
+
+
+def main():
+    source, out = sys.argv[sys.argv.index("--") + 1:][:2]
+    bpy.ops.wm.open_mainfile(filepath=source)
+    bodies = [o for o in bpy.data.objects if o.type == "MESH" and o.find_armature()]
+    if len(bodies) != 1:
+        raise SystemExit(f"cut_limbs_body: {source} has {len(bodies)} rigged meshes, expected one")
+    body = bodies[0]
+    armature = body.find_armature()
+    try:
+        cut_in_two(body, armature, LIMB_BONES)
+    except ValueError as e:
+        raise SystemExit(f"cut_limbs_body: {e}")
     print(f"cut_limbs_body: {len(LIMB_BONES)} bones cut in two "
           f"({', '.join(n + '.001' for n in LIMB_BONES if n + '.001' in armature.data.bones)})")
     bpy.ops.wm.save_as_mainfile(filepath=out)
 
 
-main()
+if __name__ == "__main__":
+    main()

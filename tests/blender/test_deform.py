@@ -101,6 +101,39 @@ def test_a_rig_modelled_in_centimetres_deforms_as_in_metres():
     assert worst < 1e-4 * diag
 
 
+def test_limb_bones_cut_in_two_deform_as_uncut():
+    """Rigify's deform bones (DEF-forearm.L and .001), DAZ's bend and twist bones and
+    MakeHuman's default rig cut a limb bone in two. Cut so by Blender's Subdivide (the weights
+    passed along the bone, scripts/blender_support/cut_limbs_body.py) and bound with the
+    product's fitting, the built-in character deforms as the uncut one in the same pose."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(
+        "cut_limbs_body", os.path.join(helpers.REPO, "scripts", "blender_support", "cut_limbs_body.py"))
+    cut_limbs_body = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cut_limbs_body)
+    world = {}
+    for cut in (False, True):
+        char = helpers.load("fixture")
+        obj, arm = char.mesh, char.armature
+        if cut:
+            cut_limbs_body.cut_in_two(obj, arm, ["upper_arm.L", "forearm.L", "thigh.L", "shin.L",
+                                                 "upper_arm.R", "forearm.R", "thigh.R", "shin.R"])
+            assert "forearm.L.001" in arm.data.bones
+        bpy.context.view_layer.objects.active = obj
+        for o in bpy.context.selected_objects:
+            o.select_set(False)
+        obj.select_set(True)
+        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
+        assert obj.sweep_deform.state == 'BOUND'
+        helpers.pose_limbs(char, elbow=1.2, knee=1.1, shoulder=0.6)
+        bpy.context.view_layer.update()
+        world[cut], _ = helpers.evaluated_positions(obj)
+    diag = helpers.diagonal(world[False])
+    worst = np.linalg.norm(world[True] - world[False], axis=1).max()
+    print(f"limb bones cut in two against uncut: worst vertex {worst / diag:.2e} of the diagonal")
+    assert worst < 1e-5 * diag
+
+
 def test_volume_settings_and_limb_volumes(character):
     helpers.use_test_rig([character])
     obj = helpers.bind(character)
