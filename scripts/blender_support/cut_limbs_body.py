@@ -9,9 +9,13 @@ middle half). The source file is only read; the result is written elsewhere.
     blender -b --factory-startup --python scripts/blender_support/cut_limbs_body.py -- SOURCE OUT
 """
 
+import os
 import sys
 
 import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
 
 LIMB_BONES = [f"{bone}_{side}" for side in ("l", "r") for bone in ("upperarm", "lowerarm", "thigh", "calf")]
 
@@ -56,12 +60,7 @@ def cut_in_two(body, armature, names):
 
 def main():
     source, out = sys.argv[sys.argv.index("--") + 1:][:2]
-    bpy.ops.wm.open_mainfile(filepath=source)
-    bodies = [o for o in bpy.data.objects if o.type == "MESH" and o.find_armature()]
-    if len(bodies) != 1:
-        raise SystemExit(f"cut_limbs_body: {source} has {len(bodies)} rigged meshes, expected one")
-    body = bodies[0]
-    armature = body.find_armature()
+    body, armature = open_rigged_body(source, "cut_limbs_body")
     try:
         cut_in_two(body, armature, LIMB_BONES)
     except ValueError as e:

@@ -6,18 +6,18 @@ scripts/quality. The source file is only read; the result is written elsewhere.
     blender -b --factory-startup --python scripts/blender_support/decimated_body.py -- SOURCE RATIO OUT
 """
 
+import os
 import sys
 
 import bpy
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+
 
 def main():
     source, ratio, out = sys.argv[sys.argv.index("--") + 1:][:3]
-    bpy.ops.wm.open_mainfile(filepath=source)
-    bodies = [o for o in bpy.data.objects if o.type == "MESH" and o.find_armature()]
-    if len(bodies) != 1:
-        raise SystemExit(f"decimated_body: {source} has {len(bodies)} rigged meshes, expected one")
-    body = bodies[0]
+    body, _ = open_rigged_body(source, "decimated_body")
     bpy.context.view_layer.objects.active = body
     for o in bpy.context.view_layer.objects:
         o.select_set(o == body)

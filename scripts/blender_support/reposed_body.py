@@ -8,10 +8,14 @@ result is written elsewhere.
     blender -b --factory-startup --python scripts/blender_support/reposed_body.py -- SOURCE OUT
 """
 
+import os
 import sys
 
 import bpy
 from mathutils import Matrix, Vector
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
 
 UPPER_ARMS = ("upperarm_l", "upperarm_r")
 
@@ -34,12 +38,7 @@ def raise_arm(armature, name):
 
 def main():
     source, out = sys.argv[sys.argv.index("--") + 1:][:2]
-    bpy.ops.wm.open_mainfile(filepath=source)
-    bodies = [o for o in bpy.data.objects if o.type == "MESH" and o.find_armature()]
-    if len(bodies) != 1:
-        raise SystemExit(f"reposed_body: {source} has {len(bodies)} rigged meshes, expected one")
-    body = bodies[0]
-    armature = body.find_armature()
+    body, armature = open_rigged_body(source, "reposed_body")
     for name in UPPER_ARMS:
         raise_arm(armature, name)
 

@@ -106,11 +106,7 @@ def test_limb_bones_cut_in_two_deform_as_uncut():
     MakeHuman's default rig cut a limb bone in two. Cut so by Blender's Subdivide (the weights
     passed along the bone, scripts/blender_support/cut_limbs_body.py) and bound with the
     product's fitting, the built-in character deforms as the uncut one in the same pose."""
-    import importlib.util
-    spec = importlib.util.spec_from_file_location(
-        "cut_limbs_body", os.path.join(helpers.REPO, "scripts", "blender_support", "cut_limbs_body.py"))
-    cut_limbs_body = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(cut_limbs_body)
+    import cut_limbs_body  # scripts/blender_support, on sys.path (run.py)
     world = {}
     for cut in (False, True):
         char = helpers.load("fixture")

@@ -760,90 +760,89 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
     check_character(t, kMakeHuman, "makehuman_t_pose", true);
 }
 
+/// Appends to `t` a bone `name` from `from` to `to` hanging from bone `b` (b's rest orientation),
+/// taking over b's children if `takes_children`; returns its index.
+int add_bone(io::Character& t, int b, const std::string& name, const dvec3& from, const dvec3& to,
+             bool takes_children) {
+    const int added = static_cast<int>(t.bone_names.size());
+    if (takes_children)
+        for (int& p : t.bone_parents)
+            if (p == b) p = added;
+    t.bone_names.push_back(name);
+    t.bone_parents.push_back(b);
+    for (int i = 0; i < 16; ++i) t.bone_rest.push_back(t.bone_rest[16 * b + i]);
+    for (int i = 0; i < 3; ++i) t.bone_rest[16 * added + 12 + i] = static_cast<float>(from[i]);
+    for (int i = 0; i < 3; ++i) t.bone_heads.push_back(static_cast<float>(from[i]));
+    for (int i = 0; i < 3; ++i) t.bone_tails.push_back(static_cast<float>(to[i]));
+    return added;
+}
+
+/// Moves share(x) of each vertex's weight on bone `b` to bone `to`, x being the vertex's place
+/// along b from `head` (0) to `tail` (1), where the vertex has a free weight slot.
+template <class Share>
+void pass_weight(io::Character& t, int b, int to, const dvec3& head, const dvec3& tail, Share share) {
+    const int V = static_cast<int>(t.positions.size() / 3);
+    for (int v = 0; v < V; ++v) {
+        int* joints = &t.skin_joints[4 * v];
+        float* weights = &t.skin_weights[4 * v];
+        int on = -1, free = -1;
+        for (int i = 0; i < 4; ++i) {
+            if (joints[i] == b && weights[i] > 0.0f) on = i;
+            if (weights[i] == 0.0f && free < 0) free = i;
+        }
+        if (on < 0 || free < 0) continue;
+        const dvec3 p(t.positions[3 * v], t.positions[3 * v + 1], t.positions[3 * v + 2]);
+        const float moved =
+            weights[on] *
+            static_cast<float>(share(glm::dot(p - head, tail - head) / glm::dot(tail - head, tail - head)));
+        weights[on] -= moved;
+        joints[free] = to;
+        weights[free] = moved;
+    }
+}
+
+dvec3 head_of(const io::Character& t, int b) {
+    return dvec3(t.bone_heads[3 * b], t.bone_heads[3 * b + 1], t.bone_heads[3 * b + 2]);
+}
+dvec3 tail_of(const io::Character& t, int b) {
+    return dvec3(t.bone_tails[3 * b], t.bone_tails[3 * b + 1], t.bone_tails[3 * b + 2]);
+}
+
 /// `c` with each named bone cut in two chained halves, as Rigify's DEF-upper_arm.L / .001
 /// (and DAZ's bend and twist bones, MakeHuman's default lowerarm01 / 02) cut a limb bone: the
 /// first half keeps the name, the second is NAME.001 and takes the bone's children; a vertex's
-/// weight on the bone passes to the second half along it (smoothstep over its middle half),
-/// where the vertex has a free weight slot.
+/// weight on the bone passes to the second half along it (smoothstep over its middle half).
 io::Character cut_in_two(const io::Character& c, const std::vector<std::string>& names) {
     io::Character t = c;
-    const int V = static_cast<int>(c.positions.size() / 3);
     for (const std::string& name : names) {
         const int b = character_fit::bone_named(t, name);
         EXPECT_GE(b, 0) << name;
         if (b < 0) continue;
-        const int half = static_cast<int>(t.bone_names.size());
-        const dvec3 head(t.bone_heads[3 * b], t.bone_heads[3 * b + 1], t.bone_heads[3 * b + 2]);
-        const dvec3 tail(t.bone_tails[3 * b], t.bone_tails[3 * b + 1], t.bone_tails[3 * b + 2]);
-        const dvec3 mid = 0.5 * (head + tail);
-        for (int& p : t.bone_parents)
-            if (p == b) p = half;
-        t.bone_names.push_back(name + ".001");
-        t.bone_parents.push_back(b);
-        for (int i = 0; i < 16; ++i) t.bone_rest.push_back(t.bone_rest[16 * b + i]);
-        for (int i = 0; i < 3; ++i) t.bone_rest[16 * half + 12 + i] = static_cast<float>(mid[i]);
-        for (int i = 0; i < 3; ++i) t.bone_heads.push_back(static_cast<float>(mid[i]));
-        for (int i = 0; i < 3; ++i) t.bone_tails.push_back(static_cast<float>(tail[i]));
+        const dvec3 head = head_of(t, b), tail = tail_of(t, b), mid = 0.5 * (head + tail);
+        const int half = add_bone(t, b, name + ".001", mid, tail, true);
         for (int i = 0; i < 3; ++i) t.bone_tails[3 * b + i] = static_cast<float>(mid[i]);
-        for (int v = 0; v < V; ++v) {
-            int* joints = &t.skin_joints[4 * v];
-            float* weights = &t.skin_weights[4 * v];
-            int on = -1, free = -1;
-            for (int i = 0; i < 4; ++i) {
-                if (joints[i] == b && weights[i] > 0.0f) on = i;
-                if (weights[i] == 0.0f && free < 0) free = i;
-            }
-            if (on < 0 || free < 0) continue;
-            const dvec3 p(t.positions[3 * v], t.positions[3 * v + 1], t.positions[3 * v + 2]);
-            const double along = glm::dot(p - head, tail - head) / glm::dot(tail - head, tail - head);
+        pass_weight(t, b, half, head, tail, [](double along) {
             const double x = std::clamp((along - 0.25) / 0.5, 0.0, 1.0);
-            const float second = weights[on] * static_cast<float>(x * x * (3.0 - 2.0 * x));
-            weights[on] -= second;
-            joints[free] = half;
-            weights[free] = second;
-        }
+            return x * x * (3.0 - 2.0 * x);
+        });
     }
     return t;
 }
 
 /// `c` with a twist bone hung beside each named bone, as Unreal's mannequin has them
 /// (lowerarm_twist_01_l): a child of the bone over its distal half (`distal`) or its
-/// proximal half, taking half of the bone's skin weight where it lies (where the vertex has a
-/// free weight slot).
+/// proximal half, taking half of the bone's skin weight where it lies.
 io::Character with_twist_bones(const io::Character& c, const std::vector<std::pair<std::string, bool>>& bones) {
     io::Character t = c;
-    const int V = static_cast<int>(c.positions.size() / 3);
     for (const auto& [name, distal] : bones) {
         const int b = character_fit::bone_named(t, name);
         EXPECT_GE(b, 0) << name;
         if (b < 0) continue;
-        const int twist = static_cast<int>(t.bone_names.size());
-        const dvec3 head(t.bone_heads[3 * b], t.bone_heads[3 * b + 1], t.bone_heads[3 * b + 2]);
-        const dvec3 tail(t.bone_tails[3 * b], t.bone_tails[3 * b + 1], t.bone_tails[3 * b + 2]);
-        const dvec3 from = distal ? 0.5 * (head + tail) : head, to = distal ? tail : 0.5 * (head + tail);
-        t.bone_names.push_back(name + "_twist_01");
-        t.bone_parents.push_back(b);
-        for (int i = 0; i < 16; ++i) t.bone_rest.push_back(t.bone_rest[16 * b + i]);
-        for (int i = 0; i < 3; ++i) t.bone_rest[16 * twist + 12 + i] = static_cast<float>(from[i]);
-        for (int i = 0; i < 3; ++i) t.bone_heads.push_back(static_cast<float>(from[i]));
-        for (int i = 0; i < 3; ++i) t.bone_tails.push_back(static_cast<float>(to[i]));
-        for (int v = 0; v < V; ++v) {
-            int* joints = &t.skin_joints[4 * v];
-            float* weights = &t.skin_weights[4 * v];
-            int on = -1, free = -1;
-            for (int i = 0; i < 4; ++i) {
-                if (joints[i] == b && weights[i] > 0.0f) on = i;
-                if (weights[i] == 0.0f && free < 0) free = i;
-            }
-            if (on < 0 || free < 0) continue;
-            const dvec3 p(t.positions[3 * v], t.positions[3 * v + 1], t.positions[3 * v + 2]);
-            const double along = glm::dot(p - head, tail - head) / glm::dot(tail - head, tail - head);
-            if ((along > 0.5) != distal) continue;
-            const float share = 0.5f * weights[on];
-            weights[on] -= share;
-            joints[free] = twist;
-            weights[free] = share;
-        }
+        const dvec3 head = head_of(t, b), tail = tail_of(t, b), mid = 0.5 * (head + tail);
+        const int twist = add_bone(t, b, name + "_twist_01", distal ? mid : head, distal ? tail : mid, false);
+        const bool far_half = distal;
+        pass_weight(t, b, twist, head, tail,
+                    [far_half](double along) { return (along > 0.5) == far_half ? 0.5 : 0.0; });
     }
     return t;
 }
@@ -855,6 +854,15 @@ struct Move {
     dvec3 axis;
     double angle;
 };
+/// MakeHuman's left elbow and knee bent 90 degrees about the body's left, and its left hand
+/// twisted 180 degrees about the forearm.
+std::vector<Move> elbow_knee_and_wrist(const io::Character& c, const fit::BodyFrame& frame) {
+    const Skeleton s = skeleton_of(c);
+    const dvec3 forearm = glm::normalize(s.heads[character_fit::bone_named(c, "hand_l")] -
+                                         s.heads[character_fit::bone_named(c, "lowerarm_l")]);
+    return {{"lowerarm_l", frame.left, M_PI / 2}, {"calf_l", frame.left, M_PI / 2}, {"hand_l", forearm, M_PI}};
+}
+
 double worst_difference(const io::Character& a, const io::Character& b, const std::vector<Move>& moves) {
     const auto deformer = [](const io::Character& c) {
         const fit::FitResult r = fit::fit_rig(character_input(c, skeleton_of(c)));
@@ -909,13 +917,7 @@ TEST(FitCharacterVariants, LimbBonesCutInTwoAreOneLink) {
             EXPECT_EQ(kw[k].is_joint_key(), kc[k].is_joint_key()) << "sweep " << i << " key " << k;
         }
     }
-    const Skeleton sw = skeleton_of(whole);
-    const dvec3 left = rw->chains.frame.left;
-    const dvec3 forearm = glm::normalize(sw.heads[character_fit::bone_named(whole, "hand_l")] -
-                                         sw.heads[character_fit::bone_named(whole, "lowerarm_l")]);
-    const double worst = worst_difference(
-        whole, cut, {{"lowerarm_l", left, M_PI / 2}, {"calf_l", left, M_PI / 2}, {"hand_l", forearm, M_PI}});
-    EXPECT_LT(worst, 1e-6);
+    EXPECT_LT(worst_difference(whole, cut, elbow_knee_and_wrist(whole, rw->chains.frame)), 1e-6);
 }
 
 // Twist bones hung beside a limb's links (Unreal's upperarm_twist_01_l, calf_twist_01_l) are
@@ -934,14 +936,8 @@ TEST(FitCharacterVariants, TwistBonesBesideTheLinksAreNotLinks) {
             twists.push_back({std::string(bone) + side, distal});
     const io::Character twisted = with_twist_bones(whole, twists);
     check_character(twisted, kMakeHuman, "makehuman_twist_bones", true);
-    const Skeleton s = skeleton_of(whole);
-    const fit::FitResult r = fit::fit_rig(character_input(whole, s));
-    const dvec3 left = r.chains.frame.left;
-    const dvec3 forearm = glm::normalize(s.heads[character_fit::bone_named(whole, "hand_l")] -
-                                         s.heads[character_fit::bone_named(whole, "lowerarm_l")]);
-    const double worst = worst_difference(
-        whole, twisted, {{"lowerarm_l", left, M_PI / 2}, {"calf_l", left, M_PI / 2}, {"hand_l", forearm, M_PI}});
-    EXPECT_LT(worst, 1e-6);
+    const fit::FitResult r = fit::fit_rig(character_input(whole, skeleton_of(whole)));
+    EXPECT_LT(worst_difference(whole, twisted, elbow_knee_and_wrist(whole, r.chains.frame)), 1e-6);
 }
 
 /// glTF stores joints, not bones: an importer points every bone one way (CesiumMan's all

@@ -59,6 +59,40 @@ void turn_subtree(const Skeleton& s, std::vector<float>& pose, int bone, const d
     }
 }
 
+/// The first swept link of every arm chain (the upper arms).
+std::vector<int> upper_arms(const fit::FitResult& r) {
+    std::vector<int> arms;
+    for (const fit::Chain& ch : r.chains.chains)
+        if (ch.kind == fit::ChainKind::Arm) arms.push_back(ch.bones[ch.first_swept]);
+    return arms;
+}
+
+/// The axis about which a positive turn raises `arm` in the body's frontal plane.
+dvec3 raising_axis(const Skeleton& s, int arm, const fit::BodyFrame& frame) {
+    const dvec3 dir = glm::normalize(s.tails[arm] - s.heads[arm]);
+    const dvec3 side = glm::normalize(dir - glm::dot(dir, frame.forward) * frame.forward);
+    return glm::normalize(glm::cross(side, frame.up));
+}
+
+/// The triangles whose centre lies within 0.44 of an upper arm's length of its head.
+std::vector<int32_t> triangles_near_shoulders(const io::Character& c, const Skeleton& s, const std::vector<int>& arms) {
+    std::vector<int32_t> near;
+    const int T = static_cast<int>(c.triangles.size() / 3);
+    for (int t = 0; t < T; ++t) {
+        dvec3 m(0.0);
+        for (int i = 0; i < 3; ++i) {
+            const int x = c.triangles[3 * t + i];
+            m += dvec3(c.positions[3 * x], c.positions[3 * x + 1], c.positions[3 * x + 2]) / 3.0;
+        }
+        for (int a : arms)
+            if (glm::length(m - s.heads[a]) < 0.44 * glm::length(s.tails[a] - s.heads[a])) {
+                near.push_back(t);
+                break;
+            }
+    }
+    return near;
+}
+
 struct Figures {
     double trunk_max = 0.0;  ///< largest distance to linear blend skinning, trunk vertices
     double trunk_mean = 0.0;
@@ -88,27 +122,21 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
     Deformer d(r.rig, bind_vertices(r.rig, V, c.positions.data(), w.sweep_slots, w.sweep_ids.data(),
                                     w.sweep_weights.data(), w.bone_slots, w.bone_ids.data(), w.bone_weights.data()));
     // Arm bones proper: the first swept link of every arm chain and everything below it.
-    std::vector<int> arm_roots, clavicles;
+    const std::vector<int> arm_roots = upper_arms(r);
+    std::vector<int> clavicles;
     for (const fit::Chain& ch : r.chains.chains)
-        if (ch.kind == fit::ChainKind::Arm) {
-            arm_roots.push_back(ch.bones[ch.first_swept]);
-            if (ch.first_swept > 0) clavicles.push_back(ch.bones[ch.first_swept - 1]);
-        }
+        if (ch.kind == fit::ChainKind::Arm && ch.first_swept > 0) clavicles.push_back(ch.bones[ch.first_swept - 1]);
     EXPECT_EQ(arm_roots.size(), 2u);
     std::vector<float> pose = io::rest_pose(c);
     {
-        const dvec3 up = r.chains.frame.up, fwd = r.chains.frame.forward;
+        const dvec3 up = r.chains.frame.up;
         for (int clav : clavicles) {  // a small shrug: the clavicle's tip up
             const dvec3 dir = glm::normalize(s.tails[clav] - s.heads[clav]);
             const dvec3 axis = glm::normalize(glm::cross(dir, up));
             turn_subtree(s, pose, clav, axis, glm::radians(clavicle_degrees));
         }
-        for (int arm : arm_roots) {  // the upper arm up, in the body's frontal plane
-            const dvec3 dir = glm::normalize(s.tails[arm] - s.heads[arm]);
-            const dvec3 side = glm::normalize(dir - glm::dot(dir, fwd) * fwd);
-            const dvec3 axis = glm::normalize(glm::cross(side, up));
-            turn_subtree(s, pose, arm, axis, glm::radians(degrees));
-        }
+        for (int arm : arm_roots)  // the upper arm up, in the body's frontal plane
+            turn_subtree(s, pose, arm, raising_axis(s, arm, r.chains.frame), glm::radians(degrees));
     }
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     d.deform(pose.data(), out.data());
@@ -145,20 +173,8 @@ Figures raise_arms(const io::Character& c, const std::string& label, double degr
     f.band_dihedral = testing::max_dihedral_change(c, out, band);
     f.band_dihedral_lbs = testing::max_dihedral_change(c, lbs, band);
     // Intersecting triangle pairs near the shoulder joints (as the demo counts them).
-    std::vector<int32_t> near;
+    const std::vector<int32_t> near = triangles_near_shoulders(c, s, arm_roots);
     const int T = static_cast<int>(c.triangles.size() / 3);
-    for (int t = 0; t < T; ++t) {
-        dvec3 m(0.0);
-        for (int i = 0; i < 3; ++i) {
-            const int x = c.triangles[3 * t + i];
-            m += dvec3(c.positions[3 * x], c.positions[3 * x + 1], c.positions[3 * x + 2]) / 3.0;
-        }
-        for (int a : arm_roots)
-            if (glm::length(m - s.heads[a]) < 0.44 * glm::length(s.tails[a] - s.heads[a])) {
-                near.push_back(t);
-                break;
-            }
-    }
     f.shoulder_pairs = measure::intersecting_pairs(V, out.data(), T, c.triangles.data(), near);
     f.shoulder_pairs_lbs = measure::intersecting_pairs(V, lbs.data(), T, c.triangles.data(), near);
     std::printf(
@@ -213,15 +229,9 @@ TEST(Shoulder, RaisedArmsLeaveTheTrunkToTheTorso) {
 io::Character rerested_with_arms_up(const io::Character& c, double degrees) {
     const Skeleton s = skeleton_of(c);
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
-    const dvec3 up = r.chains.frame.up, fwd = r.chains.frame.forward;
     std::vector<float> pose = io::rest_pose(c);
-    for (const fit::Chain& ch : r.chains.chains) {
-        if (ch.kind != fit::ChainKind::Arm) continue;
-        const int arm = ch.bones[ch.first_swept];
-        const dvec3 dir = glm::normalize(s.tails[arm] - s.heads[arm]);
-        const dvec3 side = glm::normalize(dir - glm::dot(dir, fwd) * fwd);
-        turn_subtree(s, pose, arm, glm::normalize(glm::cross(side, up)), glm::radians(degrees));
-    }
+    for (int arm : upper_arms(r))
+        turn_subtree(s, pose, arm, raising_axis(s, arm, r.chains.frame), glm::radians(degrees));
     io::Character t = c;
     character_fit::skin_linearly(c, s, pose.data(), t.positions.data());
     for (int b = 0; b < s.bone_count(); ++b) {
@@ -248,39 +258,26 @@ TEST(Shoulder, ArmsLoweredFromATPoseWrapTheTopOfTheShoulder) {
     const int V = static_cast<int>(c.positions.size() / 3);
     const fit::FitResult r = fit::fit_rig(character_input(c, s));
     Deformer d(r.rig, character_fit::bind_fitted(c, r));
-    const dvec3 up = r.chains.frame.up, fwd = r.chains.frame.forward;
+    const dvec3 up = r.chains.frame.up;
     std::vector<float> pose = io::rest_pose(c);
-    std::vector<int> arms;
-    for (const fit::Chain& ch : r.chains.chains)
-        if (ch.kind == fit::ChainKind::Arm) arms.push_back(ch.bones[ch.first_swept]);
+    const std::vector<int> arms = upper_arms(r);
     ASSERT_EQ(arms.size(), 2u);
-    for (int arm : arms) {  // down, in the frontal plane
-        const dvec3 dir = glm::normalize(s.tails[arm] - s.heads[arm]);
-        const dvec3 side = glm::normalize(dir - glm::dot(dir, fwd) * fwd);
-        turn_subtree(s, pose, arm, glm::normalize(glm::cross(side, up)), glm::radians(-70.0));
-    }
+    for (int arm : arms)  // down, in the frontal plane
+        turn_subtree(s, pose, arm, raising_axis(s, arm, r.chains.frame), glm::radians(-70.0));
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     d.deform(pose.data(), out.data());
     character_fit::skin_linearly(c, s, pose.data(), lbs.data());
     // The shoulders: skin within 0.44 of an upper arm's length of its head, and the top of
     // it (above the joint).
     std::vector<char> top(V, 0);
-    std::vector<int32_t> near;
     const auto at = [&](int v) { return dvec3(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]); };
     for (int v = 0; v < V; ++v)
         for (int a : arms)
             if (glm::length(at(v) - s.heads[a]) < 0.44 * glm::length(s.tails[a] - s.heads[a]) &&
                 glm::dot(at(v) - s.heads[a], up) > 0.0)
                 top[v] = 1;
+    const std::vector<int32_t> near = triangles_near_shoulders(c, s, arms);
     const int T = static_cast<int>(c.triangles.size() / 3);
-    for (int t = 0; t < T; ++t) {
-        const dvec3 m = (at(c.triangles[3 * t]) + at(c.triangles[3 * t + 1]) + at(c.triangles[3 * t + 2])) / 3.0;
-        for (int a : arms)
-            if (glm::length(m - s.heads[a]) < 0.44 * glm::length(s.tails[a] - s.heads[a])) {
-                near.push_back(t);
-                break;
-            }
-    }
     const int64_t pairs = measure::intersecting_pairs(V, out.data(), T, c.triangles.data(), near);
     const int64_t pairs_lbs = measure::intersecting_pairs(V, lbs.data(), T, c.triangles.data(), near);
     const double crease = testing::max_dihedral_change(c, out, top);
@@ -336,15 +333,13 @@ double section_area(const std::vector<float>& pos, const std::vector<int32_t>& t
 TEST_F(Armpit, TheArmsOwnSkinKeepsItsSectionAt160Degrees) {
     const dvec3 up = r.chains.frame.up, fwd = r.chains.frame.forward;
     std::vector<float> pose = io::rest_pose(c);
-    std::vector<int> arms;
-    for (const fit::Chain& ch : r.chains.chains)
-        if (ch.kind == fit::ChainKind::Arm) arms.push_back(ch.bones[ch.first_swept]);
+    const std::vector<int> arms = upper_arms(r);
     ASSERT_EQ(arms.size(), 2u);
     for (int arm : arms) {  // each upper arm raised to 160 degrees from hanging, in the frontal plane
         const dvec3 dir = glm::normalize(s.tails[arm] - s.heads[arm]);
         const dvec3 side = glm::normalize(dir - glm::dot(dir, fwd) * fwd);
         const double rest = std::acos(std::clamp(glm::dot(side, -up), -1.0, 1.0));
-        turn_subtree(s, pose, arm, glm::normalize(glm::cross(side, up)), glm::radians(160.0) - rest);
+        turn_subtree(s, pose, arm, raising_axis(s, arm, r.chains.frame), glm::radians(160.0) - rest);
     }
     std::vector<float> out(c.positions.size()), lbs(c.positions.size());
     d->deform(pose.data(), out.data());
