@@ -204,21 +204,25 @@ std::string bone_label(const std::vector<std::string>& names, int b) {
 /// was the clavicle and the upper arm's first half, and the forearm was left to the bones.
 /// No segment grows past kLongestSegment of the path, so an arm straight at the elbow (a
 /// T-pose) keeps its elbow: the shortest merges go first, and the halves of a segment are
-/// shorter than an arm straight through. Without a fan-out (a hand without fingers, a foot
+/// shorter than an arm straight through. Only runs of similar length merge (within
+/// kMostUnequal): a cut makes pieces of a segment alike, while a short clavicle in line with a
+/// T-posed arm is not the arm's first piece. Without a fan-out (a hand without fingers, a foot
 /// with one toe) the path's last bone is that extremity, never part of a segment: CesiumMan's
 /// hand continues its forearm straight.
 /// Returns each segment's first index into `path[0, count)` (each ends where the next begins).
 std::vector<int> limb_segments(const Tree& t, const std::vector<int>& path, int count, bool last_is_extremity) {
     const double kContinues = std::cos(2.0 * 3.14159265358979323846 / 180.0);
-    constexpr double kLongestSegment = 0.6;
-    const auto length = [&](int from, int to) {  // bones path[from .. to)
-        double l = 0.0;
-        for (int i = from; i < to; ++i) l += t.length[path[i]];
-        return l;
-    };
-    const double total = length(0, count);
+    constexpr double kLongestSegment = 0.6, kMostUnequal = 2.5;
+    // A limb is a handful of bones; a longer path (a tentacle, a malformed rig) is left uncut,
+    // which also bounds the merging below (quadratic in the path's length).
+    constexpr int kMostBones = 64;
     std::vector<int> starts(count);
     for (int i = 0; i < count; ++i) starts[i] = i;
+    if (count > kMostBones) return starts;
+    std::vector<double> before_bone(count + 1, 0.0);  // summed length of path[0 .. i)
+    for (int i = 0; i < count; ++i) before_bone[i + 1] = before_bone[i] + t.length[path[i]];
+    const auto length = [&](int from, int to) { return before_bone[to] - before_bone[from]; };
+    const double total = length(0, count);
     const auto continues = [&](int i) {  // bone path[i] continues path[i - 1]
         if (last_is_extremity && i == count - 1) return false;
         const int a = path[i - 1], b = path[i];
@@ -233,7 +237,9 @@ std::vector<int> limb_segments(const Tree& t, const std::vector<int>& path, int 
         for (size_t k = 1; k < starts.size(); ++k) {
             if (!continues(starts[k])) continue;
             const int end = k + 1 < starts.size() ? starts[k + 1] : count;
-            const double merged = length(starts[k - 1], end);
+            const double before = length(starts[k - 1], starts[k]), after = length(starts[k], end);
+            const double merged = before + after;
+            if (std::max(before, after) > kMostUnequal * std::min(before, after)) continue;
             if (merged <= kLongestSegment * total && (best < 0 || merged < best_len)) {
                 best = static_cast<int>(k);
                 best_len = merged;
