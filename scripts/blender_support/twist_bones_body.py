@@ -1,0 +1,80 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""A rig convention the shared data does not have: twist bones hung beside the limb bones, as
+Unreal's mannequin has them (upperarm_twist_01_l, lowerarm_twist_01_l, thigh_twist_01_l,
+calf_twist_01_l), for scripts/quality. Each is a child of its limb bone over the bone's upper
+half (upper arm, thigh) or lower half (forearm, shin), and takes up to half of the bone's skin
+weight there (smoothstep from the bone's middle). The source file is only read; the result is
+written elsewhere.
+
+    blender -b --factory-startup --python scripts/blender_support/twist_bones_body.py -- SOURCE OUT
+"""
+
+import os
+import sys
+
+import bpy
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+
+# (limb bone, over its lower half?) per side
+LIMBS = [(f"{bone}_{side}", lower) for side in ("l", "r")
+         for bone, lower in (("upperarm", False), ("lowerarm", True), ("thigh", False), ("calf", True))]
+
+
+def twist_name(bone):
+    name, side = bone.rsplit("_", 1)
+    return f"{name}_twist_01_{side}"
+
+
+def smoothstep(x):
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def add_twist_bones(body, armature):
+    missing = [n for n, _ in LIMBS if n not in armature.data.bones or n not in body.vertex_groups]
+    if missing:
+        raise ValueError(f"no bone or vertex group {missing}")
+    ends = {n: (armature.data.bones[n].head_local.copy(), armature.data.bones[n].tail_local.copy()) for n, _ in LIMBS}
+    bpy.context.view_layer.objects.active = armature
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == armature)
+    bpy.ops.object.mode_set(mode="EDIT")
+    for name, lower in LIMBS:
+        head, tail = ends[name]
+        mid = (head + tail) * 0.5
+        eb = armature.data.edit_bones.new(twist_name(name))
+        eb.head, eb.tail = (mid, tail) if lower else (head, mid)
+        eb.roll = armature.data.edit_bones[name].roll
+        eb.parent = armature.data.edit_bones[name]
+    bpy.ops.object.mode_set(mode="OBJECT")
+    to_armature = armature.matrix_world.inverted() @ body.matrix_world
+    for name, lower in LIMBS:
+        limb = body.vertex_groups[name]
+        twist = body.vertex_groups.new(name=twist_name(name))
+        head, tail = ends[name]
+        d = tail - head
+        for v in body.data.vertices:
+            for g in v.groups:
+                if g.group != limb.index or g.weight <= 0.0:
+                    continue
+                along = ((to_armature @ v.co) - head).dot(d) / d.length_squared
+                share = 0.5 * smoothstep((along - 0.4) / 0.4 if lower else (0.6 - along) / 0.4)
+                twist.add([v.index], g.weight * share, 'REPLACE')
+                limb.add([v.index], g.weight * (1.0 - share), 'REPLACE')
+
+
+def main():
+    source, out = sys.argv[sys.argv.index("--") + 1:][:2]
+    body, armature = open_rigged_body(source, "twist_bones_body")
+    try:
+        add_twist_bones(body, armature)
+    except ValueError as e:
+        raise SystemExit(f"twist_bones_body: {e}")
+    print(f"twist_bones_body: {len(LIMBS)} twist bones ({', '.join(twist_name(n) for n, _ in LIMBS)})")
+    bpy.ops.wm.save_as_mainfile(filepath=out)
+
+
+if __name__ == "__main__":
+    main()
