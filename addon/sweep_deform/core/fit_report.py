@@ -39,9 +39,11 @@ def sweep_labels(key_bones, bone_names, report=""):
 
 def report_joints(report):
     """The elbows and knees of a fitting report: [(label, lower bone name, kind, flexion
-    direction)] from its arm and leg chains that got a sweep (their last bone is the joint's
-    lower link); the flexion direction is the body's forward for an elbow, its back for a
-    knee (armature space, as the report's body axes)."""
+    direction)] from its arm and leg chains that got a sweep (their last link is the joint's
+    lower link: the first bone of a forearm or shin cut in two, as Rigify's DEF-forearm.L /
+    .001; a report from before links were reported gives the chain's last bone); the flexion
+    direction is the body's forward for an elbow, its back for a knee (armature space, as the
+    report's body axes)."""
     try:
         r = json.loads(report) if report else {}
         forward = [float(x) for x in r.get("body", {}).get("forward", (0.0, -1.0, 0.0))]
@@ -52,7 +54,7 @@ def report_joints(report):
     for ch in chains:
         try:
             kind = {"arm": 'ELBOW', "leg": 'KNEE'}.get(ch.get("kind"))
-            names = ch.get("bone_names", [])
+            names = ch.get("link_names") or ch.get("bone_names", [])
             if kind is None or ch.get("sweep", -1) < 0 or len(names) < 2:
                 continue
             side = ch.get("side", 0)

@@ -46,6 +46,19 @@ Joint make_joint(const Rig& rig, int lower_bone, JointKind kind, const dvec3* fl
     };
     j.upper_dir = dir(j.upper_bone, &j.upper_length);
     j.lower_dir = dir(j.lower_bone, &j.lower_length);
+    // A link reaches at least from the key before (the shoulder, the hip) to the key after (the
+    // wrist, the ankle): a limb bone cut in two (Rigify's DEF-forearm.L / .001) is one link of
+    // the sweep, and its first bone only half of it, which halved the collision region. (At
+    // least: a glTF rig's estimated tails may reach past the next joint, and its regions stay.)
+    const auto reach_to_key = [&](int from, int step, double* length) {
+        for (int k = from; k >= 0 && k < sw.key_count(); k += step)
+            if (sw.keys[k].is_joint_key() || k == 0 || k == sw.key_count() - 1) {
+                *length = std::max(*length, glm::length(sw.keys[k].center - j.center));
+                return;
+            }
+    };
+    reach_to_key(j.key - 1, -1, &j.upper_length);
+    reach_to_key(j.key + 1, +1, &j.lower_length);
     if (flexion_direction) {
         const dvec3 f = *flexion_direction - glm::dot(*flexion_direction, j.upper_dir) * j.upper_dir;
         if (!(glm::length(f) > 1e-6 * glm::length(*flexion_direction)) || !std::isfinite(glm::length(f)))

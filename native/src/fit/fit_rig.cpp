@@ -28,13 +28,15 @@ std::string make_report(const FitInput& in, const FitResult& r) {
     for (size_t c = 0; c < r.chains.chains.size(); ++c) {
         const Chain& ch = r.chains.chains[c];
         const ChainFit& fit = r.fits[c];
-        Json names = Json::array();
+        Json names = Json::array(), link_names = Json::array();
         for (int b : ch.bones) names.push_back(bone_name(in, b));
+        for (int b : ch.links()) link_names.push_back(bone_name(in, b));
         Json j = {{"name", ch.name},
                   {"kind", chain_kind_name(ch.kind)},
                   {"side", ch.side},
                   {"bones", ch.bones},
                   {"bone_names", names},
+                  {"link_names", link_names},  // the swept links: a limb bone cut in two is one
                   {"first_swept_bone", ch.bones[ch.first_swept]},
                   {"end_bone", ch.end_bone},
                   {"end_bone_name", bone_name(in, ch.end_bone)},
