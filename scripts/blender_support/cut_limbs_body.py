@@ -15,14 +15,9 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+from rigged_body import open_rigged_body, pass_weight, smoothstep  # noqa: E402  (a sibling, on the path above)
 
 LIMB_BONES = [f"{bone}_{side}" for side in ("l", "r") for bone in ("upperarm", "lowerarm", "thigh", "calf")]
-
-
-def smoothstep(x):
-    x = min(max(x, 0.0), 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def cut_in_two(body, armature, names):
@@ -41,21 +36,10 @@ def cut_in_two(body, armature, names):
         eb.select = eb.select_head = eb.select_tail = eb.name in names
     bpy.ops.armature.subdivide(number_cuts=1)
     bpy.ops.object.mode_set(mode="OBJECT")
-    # Bone ends in armature space; the mesh's vertices taken there too.
-    to_armature = armature.matrix_world.inverted() @ body.matrix_world
     for name in names:
-        first = body.vertex_groups[name]
-        second = body.vertex_groups.new(name=name + ".001")
         head, tail = ends[name]
-        d = tail - head
-        for v in body.data.vertices:
-            for g in v.groups:
-                if g.group != first.index or g.weight <= 0.0:
-                    continue
-                along = ((to_armature @ v.co) - head).dot(d) / d.length_squared
-                w = g.weight * smoothstep((along - 0.25) / 0.5)
-                second.add([v.index], w, 'REPLACE')
-                first.add([v.index], g.weight - w, 'REPLACE')
+        pass_weight(body, armature, name, body.vertex_groups.new(name=name + ".001"), head, tail,
+                    lambda along: smoothstep((along - 0.25) / 0.5))
 
 
 def main():

@@ -15,7 +15,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+from rigged_body import open_rigged_body, pass_weight, smoothstep  # noqa: E402  (a sibling, on the path above)
 
 # (limb bone, over its lower half?) per side
 LIMBS = [(f"{bone}_{side}", lower) for side in ("l", "r")
@@ -25,11 +25,6 @@ LIMBS = [(f"{bone}_{side}", lower) for side in ("l", "r")
 def twist_name(bone):
     name, side = bone.rsplit("_", 1)
     return f"{name}_twist_01_{side}"
-
-
-def smoothstep(x):
-    x = min(max(x, 0.0), 1.0)
-    return x * x * (3.0 - 2.0 * x)
 
 
 def add_twist_bones(body, armature):
@@ -49,20 +44,11 @@ def add_twist_bones(body, armature):
         eb.roll = armature.data.edit_bones[name].roll
         eb.parent = armature.data.edit_bones[name]
     bpy.ops.object.mode_set(mode="OBJECT")
-    to_armature = armature.matrix_world.inverted() @ body.matrix_world
     for name, lower in LIMBS:
-        limb = body.vertex_groups[name]
-        twist = body.vertex_groups.new(name=twist_name(name))
         head, tail = ends[name]
-        d = tail - head
-        for v in body.data.vertices:
-            for g in v.groups:
-                if g.group != limb.index or g.weight <= 0.0:
-                    continue
-                along = ((to_armature @ v.co) - head).dot(d) / d.length_squared
-                share = 0.5 * smoothstep((along - 0.4) / 0.4 if lower else (0.6 - along) / 0.4)
-                twist.add([v.index], g.weight * share, 'REPLACE')
-                limb.add([v.index], g.weight * (1.0 - share), 'REPLACE')
+        pass_weight(body, armature, name, body.vertex_groups.new(name=twist_name(name)), head, tail,
+                    (lambda along: 0.5 * smoothstep((along - 0.4) / 0.4)) if lower else
+                    (lambda along: 0.5 * smoothstep((0.6 - along) / 0.4)))
 
 
 def main():
