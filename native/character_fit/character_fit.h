@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace sd::character_fit {
 
@@ -80,6 +81,24 @@ inline void skin_linearly(const io::Character& c, const Skeleton& s, const float
     sp.set(s, pose);
     skin_linear_blend4(bone_affines(sp), static_cast<int>(c.positions.size() / 3), c.positions.data(),
                        c.skin_joints.data(), c.skin_weights.data(), out);
+}
+
+/// `c` re-rested in `pose` (#B*16 posed matrices of `s`): its mesh skinned there by its own
+/// weights, and the posed bones its new rest (a T-pose made from an A-pose, say).
+inline io::Character rerested(const io::Character& c, const Skeleton& s, const std::vector<float>& pose) {
+    io::Character t = c;
+    skin_linearly(c, s, pose.data(), t.positions.data());
+    SkeletonPose sp;
+    sp.set(s, pose.data());
+    t.bone_rest = pose;
+    for (int b = 0; b < s.bone_count(); ++b) {
+        const dvec3 head(sp.deform[b] * dvec4(s.heads[b], 1.0)), tail(sp.deform[b] * dvec4(s.tails[b], 1.0));
+        for (int i = 0; i < 3; ++i) {
+            t.bone_heads[3 * b + i] = static_cast<float>(head[i]);
+            t.bone_tails[3 * b + i] = static_cast<float>(tail[i]);
+        }
+    }
+    return t;
 }
 
 }  // namespace sd::character_fit

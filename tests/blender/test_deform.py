@@ -67,6 +67,17 @@ def test_bind_and_pose_elbows_and_knees(character):
     assert cache.peek(obj).frames == frames
 
 
+def _bound_and_posed(char):
+    """Binds the character with the product's fitting (the operator), bends its elbows, knees
+    and shoulders and returns the evaluated mesh in world space."""
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.2, knee=1.1, shoulder=0.6)
+    bpy.context.view_layer.update()
+    co, _ = helpers.evaluated_positions(obj)
+    m = np.array(obj.matrix_world, np.float64)
+    return co @ m[:3, :3].T + m[:3, 3]
+
+
 def test_a_rig_modelled_in_centimetres_deforms_as_in_metres():
     """Many rigs come in centimetres under an object scale of 0.01 (FBX from other tools). The
     same body so, bound with the product's fitting and posed alike, deforms to the same world
@@ -86,15 +97,7 @@ def test_a_rig_modelled_in_centimetres_deforms_as_in_metres():
             bpy.context.view_layer.update()
             after = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
             assert np.abs(after - before).max() < 1e-5 * helpers.diagonal(before)  # the same body
-        bpy.context.view_layer.objects.active = obj
-        obj.select_set(True)
-        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
-        assert obj.sweep_deform.state == 'BOUND'
-        helpers.pose_limbs(char, elbow=1.2, knee=1.1, shoulder=0.6)
-        bpy.context.view_layer.update()
-        co, _ = helpers.evaluated_positions(obj)
-        m = np.array(obj.matrix_world, np.float64)
-        world[centimetres] = co @ m[:3, :3].T + m[:3, 3]
+        world[centimetres] = _bound_and_posed(char)
     diag = helpers.diagonal(world[False])
     worst = np.linalg.norm(world[True] - world[False], axis=1).max()
     print(f"centimetres against metres: worst vertex {worst / diag:.2e} of the diagonal")
@@ -115,15 +118,7 @@ def test_limb_bones_cut_in_two_deform_as_uncut():
             cut_limbs_body.cut_in_two(obj, arm, ["upper_arm.L", "forearm.L", "thigh.L", "shin.L",
                                                  "upper_arm.R", "forearm.R", "thigh.R", "shin.R"])
             assert "forearm.L.001" in arm.data.bones
-        bpy.context.view_layer.objects.active = obj
-        for o in bpy.context.selected_objects:
-            o.select_set(False)
-        obj.select_set(True)
-        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
-        assert obj.sweep_deform.state == 'BOUND'
-        helpers.pose_limbs(char, elbow=1.2, knee=1.1, shoulder=0.6)
-        bpy.context.view_layer.update()
-        world[cut], _ = helpers.evaluated_positions(obj)
+        world[cut] = _bound_and_posed(char)
     diag = helpers.diagonal(world[False])
     worst = np.linalg.norm(world[True] - world[False], axis=1).max()
     print(f"limb bones cut in two against uncut: worst vertex {worst / diag:.2e} of the diagonal")

@@ -195,8 +195,13 @@ std::string bone_label(const std::vector<std::string>& names, int b) {
            (b < static_cast<int>(names.size()) && !names[b].empty() ? " '" + names[b] + "'" : std::string());
 }
 
-/// Splits a limb's main path into links and end bone: the upper and lower link are the two
-/// consecutive bones of largest summed length.
+/// Lengths summed along `path`: element i is the length of path[0 .. i), for i in [0, count].
+std::vector<double> summed_lengths(const Tree& t, const std::vector<int>& path, int count) {
+    std::vector<double> sums(count + 1, 0.0);
+    for (int i = 0; i < count; ++i) sums[i + 1] = sums[i] + t.length[path[i]];
+    return sums;
+}
+
 /// The limb's path cut into segments: runs of bones that continue one another (each next one
 /// starting where the last ends and pointing the same way within kContinues). Rigify's
 /// DEF-upper_arm.L / .001, DAZ's bend and twist bones and MakeHuman's default lowerarm01 / 02
@@ -219,9 +224,8 @@ std::vector<int> limb_segments(const Tree& t, const std::vector<int>& path, int 
     std::vector<int> starts(count);
     for (int i = 0; i < count; ++i) starts[i] = i;
     if (count > kMostBones) return starts;
-    std::vector<double> before_bone(count + 1, 0.0);  // summed length of path[0 .. i)
-    for (int i = 0; i < count; ++i) before_bone[i + 1] = before_bone[i] + t.length[path[i]];
-    const auto length = [&](int from, int to) { return before_bone[to] - before_bone[from]; };
+    const std::vector<double> sums = summed_lengths(t, path, count);
+    const auto length = [&](int from, int to) { return sums[to] - sums[from]; };
     const double total = length(0, count);
     const auto continues = [&](int i) {  // bone path[i] continues path[i - 1]
         if (last_is_extremity && i == count - 1) return false;
@@ -250,6 +254,8 @@ std::vector<int> limb_segments(const Tree& t, const std::vector<int>& path, int 
     }
 }
 
+/// Splits a limb's main path into links and end bone: the upper and lower link are the two
+/// consecutive segments (limb_segments) of largest summed length.
 void split_limb(const Tree& t, int root, Chain* chain) {
     int fan_out = -1;
     std::vector<int> path = t.main_path(root, &fan_out);
@@ -259,11 +265,8 @@ void split_limb(const Tree& t, int root, Chain* chain) {
     const std::vector<int> starts = limb_segments(t, path, searchable, fan_out < 0);
     const int n = static_cast<int>(starts.size());
     const auto segment_end = [&](int k) { return k + 1 < n ? starts[k + 1] : searchable; };
-    const auto segment_length = [&](int k) {
-        double l = 0.0;
-        for (int i = starts[k]; i < segment_end(k); ++i) l += t.length[path[i]];
-        return l;
-    };
+    const std::vector<double> sums = summed_lengths(t, path, searchable);
+    const auto segment_length = [&](int k) { return sums[segment_end(k)] - sums[starts[k]]; };
     int best = 0;
     double best_len = -1.0;
     for (int k = 0; k + 1 < n; ++k) {

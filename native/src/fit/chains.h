@@ -56,9 +56,10 @@ struct ChainSet {
 ///    whose far end is nearest the body's mid-plane; long side branches are the arms.
 ///  - Along an arm or a leg (each step into the child reaching farthest, so a twist bone
 ///    hung beside a link is passed by), bones that continue one another straight are one
-///    segment (a limb bone cut in two); the upper and lower link are the two consecutive segments with
-///    the largest summed length; bones before them are a clavicle (or hip bone), the next
-///    bone is the hand (foot). A bone with three or more children (fingers) ends the search.
+///    segment (a limb bone cut in two); the upper and lower link are the two consecutive
+///    segments with the largest summed length; bones before them are a clavicle (or hip
+///    bone), the next bone is the hand (foot). A bone with three or more children (fingers)
+///    ends the search.
 ///  - The head is the bone after the neck with the most skin weight (or a bone named
 ///    "head", or the second bone after the chest).
 /// @param names      #B bone names, or empty (only hints: sides, head)

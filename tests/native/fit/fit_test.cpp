@@ -745,20 +745,7 @@ TEST(FitCharacterVariants, YUpCentimetresAndTPose) {
                     break;
                 }
     }
-    std::vector<float> moved(t.positions.size());
-    character_fit::skin_linearly(t, s, pose.data(), moved.data());
-    t.positions = moved;
-    SkeletonPose sp;  // the bones moved with the skin
-    sp.set(s, pose.data());
-    t.bone_rest = pose;
-    for (int b = 0; b < s.bone_count(); ++b) {
-        const dvec3 h = dvec3(sp.deform[b] * dvec4(s.heads[b], 1.0)), tl = dvec3(sp.deform[b] * dvec4(s.tails[b], 1.0));
-        for (int i = 0; i < 3; ++i) {
-            t.bone_heads[3 * b + i] = static_cast<float>(h[i]);
-            t.bone_tails[3 * b + i] = static_cast<float>(tl[i]);
-        }
-    }
-    check_character(t, kMakeHuman, "makehuman_t_pose", true);
+    check_character(character_fit::rerested(t, s, pose), kMakeHuman, "makehuman_t_pose", true);
 }
 
 /// Appends to `t` a bone `name` from `from` to `to` hanging from bone `b` (b's rest orientation),
@@ -865,20 +852,15 @@ std::vector<Move> elbow_knee_and_wrist(const io::Character& c, const fit::BodyFr
 }
 
 double worst_difference(const io::Character& a, const io::Character& b, const std::vector<Move>& moves) {
-    const auto deformer = [](const io::Character& c) {
-        const fit::FitResult r = fit::fit_rig(character_input(c, skeleton_of(c)));
-        const int V = static_cast<int>(c.positions.size() / 3);
-        return std::make_unique<Deformer>(r.rig, character_fit::bind_fitted(r, V, c.positions.data()));
-    };
-    const auto da = deformer(a), db = deformer(b);
-    const Skeleton sa = skeleton_of(a), sb = skeleton_of(b);
+    const character_fit::Fitted fa = character_fit::fit_and_bind(a), fb = character_fit::fit_and_bind(b);
+    const Skeleton &sa = fa.skeleton, &sb = fb.skeleton;
     double worst = 0.0;
     for (const Move& m : moves) {
         const auto pa = bend_pose(sa, character_fit::bone_named(a, m.bone), m.axis, m.angle);
         const auto pb = bend_pose(sb, character_fit::bone_named(b, m.bone), m.axis, m.angle);
         std::vector<float> oa(a.positions.size()), ob(b.positions.size());
-        da->deform(pa.data(), oa.data());
-        db->deform(pb.data(), ob.data());
+        fa.deformer->deform(pa.data(), oa.data());
+        fb.deformer->deform(pb.data(), ob.data());
         const double d = max_distance(oa, ob) / diagonal(a.positions);
         std::printf("  %s turned: worst vertex %.2e x diagonal\n", m.bone, d);
         worst = std::max(worst, d);

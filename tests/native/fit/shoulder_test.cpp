@@ -232,16 +232,7 @@ io::Character rerested_with_arms_up(const io::Character& c, double degrees) {
     std::vector<float> pose = io::rest_pose(c);
     for (int arm : upper_arms(r))
         turn_subtree(s, pose, arm, raising_axis(s, arm, r.chains.frame), glm::radians(degrees));
-    io::Character t = c;
-    character_fit::skin_linearly(c, s, pose.data(), t.positions.data());
-    for (int b = 0; b < s.bone_count(); ++b) {
-        const dmat4 moved = pose_matrix(pose, b) * s.rest_inverse[b];
-        const dvec3 head(moved * dvec4(s.heads[b], 1.0)), tail(moved * dvec4(s.tails[b], 1.0));
-        for (int i = 0; i < 16; ++i) t.bone_rest[16 * b + i] = pose[16 * b + i];
-        for (int i = 0; i < 3; ++i) t.bone_heads[3 * b + i] = static_cast<float>(head[i]);
-        for (int i = 0; i < 3; ++i) t.bone_tails[3 * b + i] = static_cast<float>(tail[i]);
-    }
-    return t;
+    return character_fit::rerested(c, s, pose);
 }
 
 // A T-pose rest (many production and game rigs), its arms lowered 70 degrees, as skineval's
