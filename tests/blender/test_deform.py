@@ -125,6 +125,60 @@ def test_limb_bones_cut_in_two_deform_as_uncut():
     assert worst < 1e-5 * diag
 
 
+def _turned(arm, bone, axis, angle):
+    """Turns the pose bone `bone` (and so its children) by `angle` about the world `axis`
+    through its head, in the armature's current pose."""
+    pb = arm.pose.bones[bone]
+    world = arm.matrix_world
+    head = world @ pb.head
+    turn = (mathutils.Matrix.Translation(head) @ mathutils.Matrix.Rotation(angle, 4, axis)
+            @ mathutils.Matrix.Translation(-head))
+    pb.matrix = world.inverted() @ turn @ world @ pb.matrix
+    bpy.context.view_layer.update()
+
+
+def test_a_rigify_rig_binds_and_deforms_as_its_source():
+    """A rig Rigify generates (Blender's own rigging system; scripts/blender_support/
+    rigify_body.py puts the shipped MakeHuman male on one) hangs its deform bones from mechanism
+    bones (DEF-thigh.L from ORG-spine, DEF-upper_arm.L from ORG-shoulder.L): the product used to
+    refuse it ("no humanoid found: no branching found below bone 0 'root'"). It binds, and with
+    the left elbow bent and the left hand twisted (the deform bones posed, their constraints
+    muted, as the shared instrument poses them) the body deforms as on its source rig."""
+    import rigify_body  # scripts/blender_support, on sys.path (run.py)
+    path = os.path.join(helpers.FIXTURES, "mh_male_game_engine_subdiv1.blend")
+    if not os.path.isfile(path):
+        pytest.skip(f"{path} not found")
+    world = {}
+    for rigified in (False, True):
+        bpy.ops.wm.open_mainfile(filepath=path)
+        obj = next(o for o in bpy.data.objects if o.type == 'MESH' and o.find_armature())
+        arm = obj.find_armature()
+        forearm, hand = "lowerarm_l", "hand_l"
+        if rigified:
+            arm = rigify_body.rigify(obj, arm)
+            forearm, hand = "DEF-forearm.L", "DEF-hand.L"
+            for pb in arm.pose.bones:
+                for c in pb.constraints:
+                    c.mute = True
+        bpy.context.view_layer.objects.active = obj
+        for o in bpy.context.selected_objects:
+            o.select_set(False)
+        obj.select_set(True)
+        assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
+        assert obj.sweep_deform.state == 'BOUND'
+        elbow = arm.matrix_world @ arm.pose.bones[forearm].head
+        wrist = arm.matrix_world @ arm.pose.bones[hand].head
+        _turned(arm, forearm, mathutils.Vector((1.0, 0.0, 0.0)), 1.2)
+        _turned(arm, hand, (wrist - elbow).normalized(), 2.0)
+        co, _ = helpers.evaluated_positions(obj)
+        m = np.array(obj.matrix_world, np.float64)
+        world[rigified] = co @ m[:3, :3].T + m[:3, 3]
+    diag = helpers.diagonal(world[False])
+    worst = np.linalg.norm(world[True] - world[False], axis=1).max()
+    print(f"Rigify rig against its source: worst vertex {worst / diag:.2e} of the diagonal")
+    assert worst < 1e-5 * diag
+
+
 def test_volume_settings_and_limb_volumes(character):
     helpers.use_test_rig([character])
     obj = helpers.bind(character)

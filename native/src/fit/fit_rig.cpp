@@ -1,5 +1,7 @@
 #include "fit/fit_rig.h"
 
+#include "fit/deform_hierarchy.h"
+
 #include <nlohmann/json.hpp>
 
 #include <cmath>
@@ -207,9 +209,14 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
             mass.clear();
         }
     }
-    r.chains = in.chains.empty() ? find_chains(s, in.bone_names, mass) : chains_from_lists(s, in.chains);
+    // The chains are read from the skinned bones' hierarchy (a Rigify rig's deform bones hang
+    // from its mechanism bones); the rig keeps the skeleton as it is.
+    std::vector<std::string> hung;
+    const Skeleton deforming = in.chains.empty() ? deform_hierarchy(s, mass, in.bone_names, &hung) : s;
+    r.chains = in.chains.empty() ? find_chains(deforming, in.bone_names, mass) : chains_from_lists(s, in.chains);
+    r.chains.notes.insert(r.chains.notes.begin(), hung.begin(), hung.end());
     const int C = static_cast<int>(r.chains.chains.size());
-    const BoneOwners owners = bone_owners(s, r.chains);
+    const BoneOwners owners = bone_owners(deforming, r.chains);
     const bool use_skin = skinned && !mass.empty();
     PartShares shares =
         use_skin ? shares_from_skin(in.vertex_count, in.skin_slots, in.skin_bones, in.skin_weights, owners, C)

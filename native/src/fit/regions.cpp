@@ -1,6 +1,7 @@
 #include "fit/regions.h"
 
 #include "bind/bind.h"
+#include "math/segment_distance.h"
 #include "math/smoothstep.h"
 #include "rig/skeleton.h"
 
@@ -14,13 +15,6 @@
 namespace sd::fit {
 
 namespace {
-
-double segment_distance(const dvec3& p, const dvec3& a, const dvec3& b) {
-    const dvec3 e = b - a;
-    const double len2 = glm::dot(e, e);
-    const double t = len2 > 0.0 ? std::clamp(glm::dot(p - a, e) / len2, 0.0, 1.0) : 0.0;
-    return glm::length(p - (a + t * e));
-}
 
 /// Nearest bone segment of every vertex (optionally only among bones with allowed[b]).
 std::vector<int> nearest_bones(const FitMesh& mesh, const Skeleton& s, const std::vector<char>* allowed = nullptr) {

@@ -1,7 +1,9 @@
 // Which bones the limb sweeps run along (fit/chains.h), on stick humanoids whose answer is known
 // by construction: a T-pose with a short clavicle in line with the arm, limb bones cut in two,
-// an arm straight at the elbow, and twist bones hung beside the links.
+// an arm straight at the elbow, and twist bones hung beside the links; and how the skinned
+// bones are read as one tree when they hang from bones without skin (fit/deform_hierarchy.h).
 #include "fit/chains.h"
+#include "fit/deform_hierarchy.h"
 
 #include <gtest/gtest.h>
 
@@ -148,6 +150,104 @@ TEST(Chains, ATwistBoneBesideTheShinIsPassedBy) {
     std::string end;
     EXPECT_EQ(b.chain(set, "leg_l", &end), (std::vector<std::string>{"thigh_l", "shin_l"}));
     EXPECT_EQ(end, "foot_l");
+}
+
+/// Per bone of `b`: skin weight 1, but 0 for the bones named in `unskinned`.
+std::vector<double> masses(const StickBody& b, const std::vector<std::string>& unskinned) {
+    std::vector<double> m(b.names.size(), 1.0);
+    for (const std::string& n : unskinned) m[b.index(n)] = 0.0;
+    return m;
+}
+
+std::string parent_name(const StickBody& b, const Skeleton& s, const std::string& bone) {
+    const int p = s.parents[b.index(bone)];
+    return p >= 0 ? b.names[p] : "";
+}
+
+/// The T-pose stick body rigged as Rigify rigs one: a root bone at the floor holds the hips and
+/// a mechanism bone where the hips lie (ORG-hips); the thighs hang from ORG-hips, the
+/// clavicles from ORG-chest (where the chest lies, under ORG-hips), the upper arms from
+/// ORG-clavicle_l/_r (where the clavicles lie). With `placed` false the mechanism bones lie
+/// elsewhere (a rig whose controls are not where the deform bones are).
+StickBody mechanism_rig(bool placed) {
+    StickBody b = t_pose(0.15);
+    const auto at = [&](const std::string& bone, const dvec3& away) {
+        const int i = b.index(bone);
+        return std::pair<dvec3, dvec3>{b.heads[i] + (placed ? dvec3(0.0) : away),
+                                       b.tails[i] + (placed ? dvec3(0.0) : away)};
+    };
+    b.add("root", "", {0, 0, 0}, {0, 0.2, 0});
+    b.parents[b.index("hips")] = b.index("root");
+    const dvec3 behind(0, 0.5, 0);
+    auto [hh, ht] = at("hips", behind);
+    b.add("ORG-hips", "root", hh, ht);
+    auto [ch, ct] = at("chest", behind);
+    b.add("ORG-chest", "ORG-hips", ch, ct);
+    for (const char* side : {"_l", "_r"}) {
+        const std::string s(side);
+        b.parents[b.index("thigh" + s)] = b.index("ORG-hips");
+        b.parents[b.index("clavicle" + s)] = b.index("ORG-chest");
+        auto [kh, kt] = at("clavicle" + s, behind);
+        b.add("ORG-clavicle" + s, "ORG-chest", kh, kt);
+        b.parents[b.index("upperarm" + s)] = b.index("ORG-clavicle" + s);
+    }
+    return b;
+}
+
+const std::vector<std::string> kMechanism = {"root", "ORG-hips", "ORG-chest", "ORG-clavicle_l", "ORG-clavicle_r"};
+
+// Skinned bones that form one tree are read as they are.
+TEST(DeformHierarchy, OneTreeIsKept) {
+    const StickBody b = t_pose(0.15);
+    const Skeleton s = b.skeleton();
+    std::vector<std::string> notes;
+    EXPECT_EQ(fit::deform_hierarchy(s, masses(b, {}), b.names, &notes).parents, s.parents);
+    EXPECT_TRUE(notes.empty());
+}
+
+// Rigify's mechanism bones lie where the deform bones do: each deform root hangs from the
+// skinned bone in the place of its parent, and the chains are the plain body's.
+TEST(DeformHierarchy, RootsHangWhereTheirMechanismParentsLie) {
+    const StickBody b = mechanism_rig(true);
+    std::vector<std::string> notes;
+    const std::vector<double> m = masses(b, kMechanism);
+    const Skeleton s = fit::deform_hierarchy(b.skeleton(), m, b.names, &notes);
+    EXPECT_EQ(parent_name(b, s, "thigh_l"), "hips");
+    EXPECT_EQ(parent_name(b, s, "clavicle_r"), "chest");
+    EXPECT_EQ(parent_name(b, s, "upperarm_l"), "clavicle_l");
+    EXPECT_EQ(parent_name(b, s, "hips"), "root");  // the highest tree stays where it was
+    EXPECT_EQ(notes.size(), 6u);
+    // As the hierarchy was given, no chain could be found.
+    EXPECT_THROW(fit::find_chains(b.skeleton(), b.names, m), InvalidInput);
+    const fit::ChainSet set = fit::find_chains(s, b.names, m);
+    std::string end;
+    EXPECT_EQ(b.chain(set, "arm_l", &end), (std::vector<std::string>{"clavicle_l", "upperarm_l", "forearm_l"}));
+    EXPECT_EQ(end, "hand_l");
+    EXPECT_EQ(b.chain(set, "leg_r", &end), (std::vector<std::string>{"thigh_r", "shin_r"}));
+    EXPECT_EQ(end, "foot_r");
+}
+
+// Where no mechanism bone lies in a skinned bone's place, each deform root hangs from the
+// skinned bone nearest its head, nearest first: the clavicle from the chest (its head 3 cm
+// from the chest, 3.6 cm from the neck), then the upper arm from the clavicle just hung.
+TEST(DeformHierarchy, RootsHangFromTheNearestSkinnedBone) {
+    const StickBody b = mechanism_rig(false);
+    const std::vector<double> m = masses(b, kMechanism);
+    const Skeleton s = fit::deform_hierarchy(b.skeleton(), m, b.names, nullptr);
+    EXPECT_EQ(parent_name(b, s, "thigh_r"), "hips");
+    EXPECT_EQ(parent_name(b, s, "clavicle_l"), "chest");
+    EXPECT_EQ(parent_name(b, s, "upperarm_r"), "clavicle_r");
+    std::string end;
+    EXPECT_EQ(b.chain(fit::find_chains(s, b.names, m), "arm_r", &end),
+              (std::vector<std::string>{"clavicle_r", "upperarm_r", "forearm_r"}));
+}
+
+// A skinned bone far from the body (a prop across the scene) is left where it is.
+TEST(DeformHierarchy, ABoneApartFromTheBodyStaysApart) {
+    StickBody b = t_pose(0.15);
+    b.add("prop", "", {3, 0, 1}, {3, 0, 1.5});
+    const Skeleton s = fit::deform_hierarchy(b.skeleton(), masses(b, {}), b.names, nullptr);
+    EXPECT_EQ(parent_name(b, s, "prop"), "");
 }
 
 }  // namespace

@@ -936,6 +936,40 @@ TEST(FitCharacterVariants, TwistBonesBesideTheLinksAreNotLinks) {
     EXPECT_LT(worst_difference(whole, twisted, elbow_knee_and_wrist(whole, r.chains.frame)), 1e-6);
 }
 
+/// `c` rigged as Rigify rigs a body: each thigh, clavicle and upper arm hangs from a mechanism
+/// bone without skin weight (ORG-NAME, in its parent's place) under the root, not from its
+/// anatomical parent, as DEF-thigh.L hangs from ORG-spine and DEF-upper_arm.L from ORG-shoulder.L.
+io::Character with_mechanism_bones(const io::Character& c) {
+    io::Character t = c;
+    const int root = character_fit::bone_named(t, "Root");
+    EXPECT_GE(root, 0);
+    for (const char* name : {"thigh_l", "thigh_r", "clavicle_l", "clavicle_r", "upperarm_l", "upperarm_r"}) {
+        const int b = character_fit::bone_named(t, name);
+        EXPECT_GE(b, 0) << name;
+        if (b < 0 || root < 0) continue;
+        const int p = t.bone_parents[b];
+        t.bone_parents[b] = add_bone(t, root, std::string("ORG-") + name, head_of(t, p), tail_of(t, p), false);
+    }
+    return t;
+}
+
+// A rig whose deform bones hang from bones without skin weight (Rigify generates such rigs: of
+// ~200-700 bones about 60 deform, DEF-thigh.L under ORG-spine, DEF-upper_arm.L under
+// ORG-shoulder.L) is one body: its skinned bones are read as one tree, each hung from the
+// skinned bone nearest its head. Before, the chain finding walked the hierarchy as given and
+// refused the character ("no branching found below the root"; a Rigify rig made from this body
+// in Blender, scripts/blender_support/rigify_body.py, was refused so). The body deforms as with
+// its own hierarchy.
+TEST(FitCharacterVariants, DeformBonesHungFromMechanismBonesAreOneBody) {
+    const std::string path = data_file(kMakeHuman.file);
+    REQUIRE_DATA(path);
+    const io::Character whole = io::load_gltf_character(path);
+    const io::Character rigged = with_mechanism_bones(whole);
+    check_character(rigged, kMakeHuman, "makehuman_mechanism_bones", true);
+    const fit::FitResult r = fit::fit_rig(character_input(whole, skeleton_of(whole)));
+    EXPECT_LT(worst_difference(whole, rigged, elbow_knee_and_wrist(whole, r.chains.frame)), 1e-6);
+}
+
 /// glTF stores joints, not bones: an importer points every bone one way (CesiumMan's all
 /// along the body's side). The fit must read the body from the joints: the feet give the front
 /// and so the sides, and the torso's end key, where the neck starts, follows the neck as its
