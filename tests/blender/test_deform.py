@@ -178,6 +178,22 @@ def test_a_rigify_rig_binds_and_deforms_as_its_source():
     print(f"Rigify rig against its source: worst vertex {worst / diag:.2e} of the diagonal")
     assert worst < 1e-5 * diag
 
+    # Posed as an animator poses it: the constraints on, the left hand's IK control moved up
+    # 25 cm. The deform bones follow the rig's mechanism, and the mesh is the core's result for
+    # their evaluated pose.
+    for pb in arm.pose.bones:
+        pb.matrix_basis = mathutils.Matrix.Identity(4)
+        for c in pb.constraints:
+            c.mute = False
+    bpy.context.view_layer.update()
+    before, _ = helpers.evaluated_positions(obj)
+    arm.pose.bones["hand_ik.L"].location = (0.0, 0.25, 0.0)  # the control's own y: along the forearm
+    bpy.context.view_layer.update()
+    co = check_equals_core(obj, "Rigify, IK control moved")
+    moved = np.linalg.norm(co - before, axis=1).max()
+    print(f"Rigify IK control moved: the skin moved up to {moved:.3f} m")
+    assert moved > 0.05
+
 
 def test_volume_settings_and_limb_volumes(character):
     helpers.use_test_rig([character])
