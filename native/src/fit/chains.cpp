@@ -49,9 +49,10 @@ struct Tree {
     std::vector<double> length;  ///< |tail - head|
     /// Longest geometric path from the bone's head through its subtree (to a tail).
     std::vector<double> reach;
-    std::vector<double> mass;  ///< summed skin weight of the subtree (empty: unknown)
-    std::vector<int> order;    ///< every bone after its parent
-    double size = 1.0;         ///< diagonal of the heads' and tails' bounding box
+    std::vector<double> mass;      ///< summed skin weight of the subtree (empty: unknown)
+    std::vector<double> own_mass;  ///< skin weight of the bone itself (empty: unknown)
+    std::vector<int> order;        ///< every bone after its parent
+    double size = 1.0;             ///< diagonal of the heads' and tails' bounding box
 
     Tree(const Skeleton& skeleton, const std::vector<double>& bone_mass) : s(skeleton), count(skeleton.bone_count()) {
         children.resize(count);
@@ -66,7 +67,7 @@ struct Tree {
         }
         size = std::max(glm::length(hi - lo), 1e-300);
         order = parents_first(skeleton);
-        if (!bone_mass.empty()) mass = bone_mass;
+        if (!bone_mass.empty()) mass = own_mass = bone_mass;
         for (auto it = order.rbegin(); it != order.rend(); ++it) {  // children are done first
             const int b = *it;
             reach[b] = length[b];
@@ -166,6 +167,33 @@ struct Tree {
         return false;
     }
 };
+
+/// Whether `bone`, an ancestor of the hips, is a skinned bone at the hips: it carries at least
+/// 1 % of the body's skin weight itself and its head lies within 0.1 of the skeleton's size of
+/// the hips' head (a Root bone at the floor does not).
+bool pelvis_above_hips(const Tree& t, int bone, int hips) {
+    if (t.mass.empty() || t.own_mass.empty()) return false;
+    double total = 0.0;
+    for (double m : t.own_mass) total += m;
+    return t.own_mass[bone] >= 0.01 * total && glm::length(t.s.heads[bone] - t.s.heads[hips]) <= 0.1 * t.size;
+}
+
+/// Whether the spine bone the arms hang from, spine[chest], is the neck (3ds Max Biped hangs
+/// its clavicles from Bip01 Neck): only the head follows it on the spine, every arm starts
+/// within its first tenth (joint to joint), and it carries less than half the skin weight of
+/// the spine bones below it on average (a neck, not a chest). A chest whose arms start at its
+/// head is followed by a neck (CesiumMan), or carries the chest's skin.
+bool arms_hang_from_the_neck(const Tree& t, const std::vector<int>& spine, int chest,
+                             const std::vector<std::pair<int, int>>& arms) {
+    if (t.own_mass.empty() || chest < 2 || chest + 2 != static_cast<int>(spine.size())) return false;
+    const int neck = spine[chest];
+    const dvec3 d = t.s.heads[spine[chest + 1]] - t.s.heads[neck];
+    for (const auto& [root, from] : arms)
+        if (from != neck || glm::dot(t.s.heads[root] - t.s.heads[neck], d) > 0.1 * glm::dot(d, d)) return false;
+    double below = 0.0;
+    for (int i = 1; i < chest; ++i) below += t.own_mass[spine[i]];
+    return t.own_mass[neck] < 0.5 * below / (chest - 1);
+}
 
 std::string lower(std::string s) {
     for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -402,6 +430,11 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
         for (const auto& a : arms)
             chest_index = std::max(chest_index,
                                    static_cast<int>(std::find(spine.begin(), spine.end(), a.second) - spine.begin()));
+        if (arms_hang_from_the_neck(t, spine, chest_index, arms)) {
+            --chest_index;
+            out.notes.push_back("the arms hang from the neck " + label(spine[chest_index + 1]) +
+                                " (as in 3ds Max Biped): the torso ends below it");
+        }
     } else {
         chest_index = std::max(0, static_cast<int>(spine.size()) - 3);
     }
@@ -487,6 +520,12 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
     torso.kind = ChainKind::Torso;
     torso.name = "torso";
     torso.bones.assign(spine.begin(), spine.begin() + chest_index + 1);
+    // Skinned bones above the hips at the hips (3ds Max Biped's Bip01 Pelvis above Bip01 Spine,
+    // from which its thighs hang) are the torso's first links: left out, the skin they carry
+    // (the pelvis, the belly) stayed with a bone the torso does not bend, and a cut ran across
+    // the waist.
+    for (int p = s.parents[hips]; p >= 0 && pelvis_above_hips(t, p, hips); p = s.parents[p])
+        torso.bones.insert(torso.bones.begin(), p);
     torso.end_bone = !rest.empty() ? rest[0] : -1;
     out.chains.push_back(torso);
     if (!neck.empty()) {

@@ -53,7 +53,10 @@ struct ChainSet {
 ///  - The hips are the first bone below the root where two or more long branches split;
 ///    the branch holding most extremities is the spine, the others are the legs.
 ///  - The spine is followed from the hips towards the head, at each bone taking the child
-///    whose far end is nearest the body's mid-plane; long side branches are the arms.
+///    whose far end is nearest the body's mid-plane; long side branches are the arms. The
+///    torso runs from the hips (and the skinned bones just above them: 3ds Max Biped's pelvis,
+///    above the spine bone its thighs hang from) to the deepest spine bone an arm hangs from,
+///    unless that is a neck (Biped's clavicles hang from the neck: see the .cpp).
 ///  - Along an arm or a leg (each step into the child reaching farthest, so a twist bone
 ///    hung beside a link is passed by), bones that continue one another straight are one
 ///    segment (a limb bone cut in two); the upper and lower link are the two consecutive

@@ -152,6 +152,33 @@ TEST(Chains, ATwistBoneBesideTheShinIsPassedBy) {
     EXPECT_EQ(end, "foot_l");
 }
 
+// 3ds Max Biped's hierarchy: the thighs hang from the first spine bone, the clavicles from the
+// neck (at its head). The skinned pelvis above the hips is the torso's first link, and the neck,
+// which carries little skin, stays the neck; the chains are the plain body's.
+TEST(Chains, ABipedHierarchyHasThePlainBodysChains) {
+    StickBody b = t_pose(0.15);
+    for (const char* side : {"_l", "_r"}) {
+        const std::string s(side);
+        b.parents[b.index("thigh" + s)] = b.index("spine");
+        b.parents[b.index("clavicle" + s)] = b.index("neck");
+    }
+    std::vector<double> mass(b.names.size(), 1.0);
+    mass[b.index("neck")] = 0.2;
+    const fit::ChainSet set = fit::find_chains(b.skeleton(), b.names, mass);
+    std::string end;
+    EXPECT_EQ(b.chain(set, "torso", &end), (std::vector<std::string>{"hips", "spine", "chest"}));
+    EXPECT_EQ(end, "neck");
+    EXPECT_EQ(b.chain(set, "neck", &end), (std::vector<std::string>{"neck"}));
+    EXPECT_EQ(end, "head");
+    EXPECT_EQ(b.chain(set, "arm_l", &end), (std::vector<std::string>{"clavicle_l", "upperarm_l", "forearm_l"}));
+    EXPECT_EQ(b.chain(set, "leg_r", &end), (std::vector<std::string>{"thigh_r", "shin_r"}));
+    // A neck carrying as much skin as the chest is a chest (a rig without a neck bone whose
+    // arms start at the chest's head): the torso runs on to the head.
+    mass[b.index("neck")] = 1.0;
+    EXPECT_EQ(b.chain(fit::find_chains(b.skeleton(), b.names, mass), "torso", &end),
+              (std::vector<std::string>{"hips", "spine", "chest", "neck"}));
+}
+
 /// Per bone of `b`: skin weight 1, but 0 for the bones named in `unskinned`.
 std::vector<double> masses(const StickBody& b, const std::vector<std::string>& unskinned) {
     std::vector<double> m(b.names.size(), 1.0);
