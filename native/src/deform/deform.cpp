@@ -165,6 +165,10 @@ double control_trust(const Sweep& s, const VolumeQuadrature& q, const std::vecto
            std::clamp((kept - kKeptNone) / (kKeptFull - kKeptNone), 0.0, 1.0);
 }
 
+/// A thick chain's folding (sweep_folding) from which its volume hold, and the share of the
+/// volume it gives back inside the bend, fade, and over how much they fade out (smoothstep).
+constexpr double kFoldingFrom = 0.55, kFoldingWidth = 0.2;
+
 /// The bend across a limb key's neighbours from which its growth is held off the fold in full.
 constexpr double kFullHoldBend = 0.25 * 3.14159265358979323846;  // 45 degrees
 
@@ -229,6 +233,23 @@ BendAtKey bend_at_key(const Sweep& s, const SweepGeometry& posed, int k) {
     return bend;
 }
 
+/// How sharply a sweep bends for its depth: the largest, over its inner keys, of the key's
+/// inside half-axis times the sweep's curvature there (the turn between its neighbours over the
+/// distance between them). At 1 the planes cross on that key's inside edge. MakeHuman's trunk
+/// bent forward 45 degrees over its three spine bones reaches 0.52; bent 60 degrees, 0.77.
+double sweep_folding(const Sweep& s, const SweepGeometry& posed, const std::vector<double>& a,
+                     const std::vector<double>& b) {
+    double folding = 0.0;
+    for (int k = 1; k + 1 < s.key_count(); ++k) {
+        const BendAtKey bend = bend_at_key(s, posed, k);
+        const dvec2 in = bend.inside();
+        const double chord = glm::length(key_center(posed, k + 1) - key_center(posed, k - 1));
+        const double turned = 2.0 * std::asin(std::min(1.0, glm::length(bend.towards_inside())));
+        if (chord > 0.0) folding = std::max(folding, std::hypot(a[k] * in.x, b[k] * in.y) * turned / chord);
+    }
+    return folding;
+}
+
 }  // namespace
 
 bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
@@ -264,25 +285,13 @@ bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
     // 1.54x its rest distance, Preserve Volume 1.07); grown along the bend's axis alone its
     // flanks rose in a band where it bends; all inside, the belly folded into a notch.
     constexpr double kInside = 0.35;
-    // ... fading out as `folding` (below) goes from kFoldingFrom to kFoldingFrom + kFoldingWidth.
-    constexpr double kFoldingFrom = 0.55, kFoldingWidth = 0.2;
-    // Where the sweep bends sharply for the body's depth, none goes inside: growth there fills
-    // a fold that is already closing. A key's `folding` is its inside half-axis times the
-    // sweep's curvature there (the turn between its neighbours over the distance between
-    // them): at 1 the planes cross on its inside edge. One share for the whole sweep, from its
-    // sharpest key (a share per key rippled the belly). MakeHuman bent forward 45 degrees over
-    // its three spine bones reaches 0.52 (the share kept); 60 degrees, 0.77, and its belly
-    // creased by 125 degrees (linear blend skinning 40; 63 with no share inside), and bent
-    // 45 degrees over its upper two, by 105 degrees (43; 50).
-    double folding = 0.0;
-    for (int k = 1; k + 1 < K; ++k) {
-        const BendAtKey bend = bend_at_key(s, posed, k);
-        const dvec2 in = bend.inside();
-        const double chord = glm::length(key_center(posed, k + 1) - key_center(posed, k - 1));
-        const double turned = 2.0 * std::asin(std::min(1.0, glm::length(bend.towards_inside())));
-        if (chord > 0.0) folding = std::max(folding, std::hypot(a[k] * in.x, b[k] * in.y) * turned / chord);
-    }
-    const double inside = kInside * (1.0 - smoothstep01((folding - kFoldingFrom) / kFoldingWidth));
+    // Where the sweep bends sharply for the body's depth (sweep_folding), none goes inside:
+    // growth there fills a fold that is already closing (with the hold fading over the same
+    // range, MakeHuman bent 52.5 degrees: largest crease of the trunk 57 degrees with the share
+    // kept, 52 faded). One share for the whole sweep, from its sharpest key (a share per key
+    // rippled the belly).
+    const double inside =
+        kInside * (1.0 - smoothstep01((sweep_folding(s, posed, a, b) - kFoldingFrom) / kFoldingWidth));
     bool moved = false;
     for (int k = 0; k < K; ++k) {
         double r = 0.0, w = 0.0;
@@ -417,9 +426,17 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         // this pose (control_trust: none on a crumpled sweep).
         std::vector<double> density = volume_density(s.quadrature, g);
         VolumeForm form(s.quadrature, density);
-        const double strength = volume_enabled_ && volume_strength_ > 0.0
-                                    ? volume_strength_ * control_trust(s, s.quadrature, density, form)
-                                    : 0.0;
+        double strength = volume_enabled_ && volume_strength_ > 0.0
+                              ? volume_strength_ * control_trust(s, s.quadrature, density, form)
+                              : 0.0;
+        // A thick chain bent sharply for its depth is not filled out: there the volume came
+        // back as a belt across the belly (MakeHuman bent 60 degrees: the trunk's skin 1.44x
+        // its rest distance from the spine, 1.19 without; linear blend skinning 1.12), and its
+        // planes cross inside the body whatever is held. Full below kFoldingFrom (the
+        // instrument's 45 degree bend), none from kFoldingFrom + kFoldingWidth; half drew half
+        // the belt.
+        if (strength > 0.0 && s.bends_smoothly)
+            strength *= 1.0 - smoothstep01((sweep_folding(s, g, a, b) - kFoldingFrom) / kFoldingWidth);
         if (strength > 0.0) {
             const double before = form.volume(a.data(), b.data());
             // V0 of the corrected rest pose, plus what the artist's scaling adds in this pose

@@ -1,9 +1,11 @@
 // The trunk bent forward further than the instrument's 45 degrees (skineval spine_bend_45), as an
 // animator bends a character to pick something up, or bends its upper spine alone: the belly
-// must not fold into itself. The volume the bend takes from the trunk is given back partly on
-// the inside of the bend (docs/math.md); where the bend is sharp for the body's depth that share
-// filled a fold that was already closing: MakeHuman's belly creased by 125 degrees at 60 degrees
-// (linear blend skinning 40) and by 105 at 45 degrees over the upper spine alone (43).
+// must neither fold into itself nor swell into a belt. The volume the bend takes from the trunk
+// is given back, partly on the inside of the bend (docs/math.md); where the bend is sharp for the
+// body's depth that filled a fold that was already closing: MakeHuman's belly creased by 125
+// degrees at 60 degrees (linear blend skinning 40) and by 105 at 45 degrees over the upper spine
+// alone (43), and with the inside share faded the volume still came back as a belt across the
+// belly (its skin 1.44x its rest distance from the spine; 1.12 for linear blend skinning).
 #include "character_fit.h"
 #include "dihedral.h"
 #include "turned_pose.h"
@@ -13,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -34,7 +37,7 @@ void PrintTo(const Bend& b, std::ostream* os) { *os << b.what; }
 
 class TrunkBend : public ::testing::TestWithParam<Bend> {};
 
-TEST_P(TrunkBend, TheBellyDoesNotFold) {
+TEST_P(TrunkBend, TheBellyNeitherFoldsNorSwells) {
     const Bend& bend = GetParam();
     const std::string path = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/mh_male_game_engine.glb";
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
@@ -76,14 +79,50 @@ TEST_P(TrunkBend, TheBellyDoesNotFold) {
     character_fit::skin_linearly(c, s, pose.data(), lbs.data());
     const double sweep = glm::degrees(testing::max_dihedral_change(c, out, watched));
     const double skinning = glm::degrees(testing::max_dihedral_change(c, lbs, watched));
-    std::printf("%s: largest crease of the trunk %.1f deg (linear blend skinning %.1f)\n", bend.what, sweep, skinning);
+    // How far the trunk's skin moves away from its spine (the instrument's r_max): a belt of
+    // restored volume across the belly (a ridge, no crease) shows here.
+    std::vector<int> spine_bones;
+    for (const char* name : {"pelvis", "spine_01", "spine_02", "spine_03"})
+        spine_bones.push_back(character_fit::bone_named(c, name));
+    const auto spine_distance = [&](const dvec3& p, bool posed) {
+        double d = 1e30;
+        for (int sb : spine_bones) {
+            dvec3 h = s.heads[sb], t = s.tails[sb];
+            dmat4 M;
+            for (int col = 0; col < 4; ++col)
+                for (int row = 0; row < 4; ++row) M[col][row] = pose[16 * sb + 4 * col + row];
+            const dmat4 D = posed ? M * s.rest_inverse[sb] : dmat4(1.0);
+            h = dvec3(D * dvec4(h, 1.0));
+            t = dvec3(D * dvec4(t, 1.0));
+            const dvec3 e = t - h;
+            const double u = std::clamp(glm::dot(p - h, e) / glm::dot(e, e), 0.0, 1.0);
+            d = std::min(d, glm::length(p - h - u * e));
+        }
+        return d;
+    };
+    double rmax = 0.0, rmax_lbs = 0.0;
+    for (int v = 0; v < V; ++v) {
+        if (!watched[v]) continue;
+        const dvec3 p0(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
+        const double d0 = spine_distance(p0, false);
+        if (d0 < 0.03) continue;
+        rmax = std::max(rmax, spine_distance(dvec3(out[3 * v], out[3 * v + 1], out[3 * v + 2]), true) / d0);
+        rmax_lbs = std::max(rmax_lbs, spine_distance(dvec3(lbs[3 * v], lbs[3 * v + 1], lbs[3 * v + 2]), true) / d0);
+    }
+    std::printf("%s: largest crease of the trunk %.1f deg (linear blend skinning %.1f), r_max %.3f (%.3f)\n", bend.what,
+                sweep, skinning, rmax, rmax_lbs);
     // A fold turns the skin back on itself: more than a right angle.
     EXPECT_LT(sweep, 90.0) << "the trunk's skin folds";
+    // A belt of restored volume across the belly is no fold but pushes the skin out from the
+    // spine: 1.44x its rest distance at 60 degrees when the hold was kept there. The
+    // instrument's 45 degree bend, with the hold in full, reaches 1.19.
+    EXPECT_LT(rmax, 1.25) << "the trunk's skin bulges away from the spine";
 }
 
 INSTANTIATE_TEST_SUITE_P(
     MakeHuman, TrunkBend,
     ::testing::Values(Bend{"bent 45 deg over three spine bones", {"spine_01", "spine_02", "spine_03"}, 15.0},
+                      Bend{"bent 52.5 deg over three spine bones", {"spine_01", "spine_02", "spine_03"}, 17.5},
                       Bend{"bent 60 deg over three spine bones", {"spine_01", "spine_02", "spine_03"}, 20.0},
                       Bend{"bent 45 deg over the upper two", {"spine_02", "spine_03"}, 22.5}));
 
