@@ -42,13 +42,11 @@ Skeleton deform_hierarchy(const Skeleton& skeleton, const std::vector<double>& b
     // hanging them would cost their count squared): left as they are.
     if (roots.size() < 2 || roots.size() > kMostDeformRoots) return skeleton;
     std::vector<int> root_of(B, -1);
-    std::vector<double> tree_mass(B, 0.0);
     for (int b = 0; b < B; ++b) {
         if (!skinned(b)) continue;
         int r = b;
         while (above[r] >= 0) r = above[r];
         root_of[b] = r;
-        tree_mass[r] += bone_mass[b];
     }
 
     Skeleton out = skeleton;

@@ -6,11 +6,13 @@
 // floor), so the deform bones form several separate trees, and the thighs are no child of the
 // hips: the chain finding found "no branching below the root" and refused the character.
 //
-// Here every skinned bone whose ancestors carry no skin weight (a deform root), but the one
-// highest in the hierarchy, hangs from the skinned bone nearest its head, nearest pairs first
-// (Prim's order), when that bone lies within kDeformRootReach of the skeleton's size; the
-// bones without skin weight keep their parents. A rig whose skinned bones form one tree is given
-// back unchanged.
+// Here every skinned bone whose ancestors carry no skin weight (a deform root) hangs, first,
+// from the skinned bone that lies exactly where its nearest unskinned ancestor lies (Rigify's
+// ORG bones lie on its DEF bones: DEF-upper_arm.L's parent ORG-shoulder.L on DEF-shoulder.L);
+// what is left hangs on the tree rooted highest in the hierarchy, each root from the skinned
+// bone nearest its head, nearest pairs first (Prim's order), when that bone lies within
+// kDeformRootReach of the skeleton's size. The bones without skin weight keep their parents.
+// A rig whose skinned bones form one tree is given back unchanged.
 #pragma once
 
 #include "rig/skeleton.h"
