@@ -168,14 +168,17 @@ struct Tree {
     }
 };
 
-/// Whether `bone`, an ancestor of the hips, is a skinned bone at the hips: it carries at least
-/// 1 % of the body's skin weight itself and its head lies within 0.1 of the skeleton's size of
-/// the hips' head (a Root bone at the floor does not).
-bool pelvis_above_hips(const Tree& t, int bone, int hips) {
+/// Whether `bone`, the parent of the torso's first link `first` (the hips, or a bone taken
+/// before them), is a skinned bone at the hips: it carries at least 1 % of the body's skin
+/// weight itself and its head lies within 0.1 of the skeleton's size of `first`'s head (a Root
+/// bone at the floor does not), but not on it (a link from the one head to the other would
+/// have no length).
+bool pelvis_above_hips(const Tree& t, int bone, int first) {
     if (t.mass.empty() || t.own_mass.empty()) return false;
     double total = 0.0;
     for (double m : t.own_mass) total += m;
-    return t.own_mass[bone] >= 0.01 * total && glm::length(t.s.heads[bone] - t.s.heads[hips]) <= 0.1 * t.size;
+    const double apart = glm::length(t.s.heads[bone] - t.s.heads[first]);
+    return t.own_mass[bone] >= 0.01 * total && apart <= 0.1 * t.size && apart >= 0.01 * t.size;
 }
 
 /// Whether the spine bone the arms hang from, spine[chest], is the neck (3ds Max Biped hangs
@@ -524,7 +527,7 @@ ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, c
     // from which its thighs hang) are the torso's first links: left out, the skin they carry
     // (the pelvis, the belly) stayed with a bone the torso does not bend, and a cut ran across
     // the waist.
-    for (int p = s.parents[hips]; p >= 0 && pelvis_above_hips(t, p, hips); p = s.parents[p])
+    for (int p = s.parents[hips]; p >= 0 && pelvis_above_hips(t, p, torso.bones.front()); p = s.parents[p])
         torso.bones.insert(torso.bones.begin(), p);
     torso.end_bone = !rest.empty() ? rest[0] : -1;
     out.chains.push_back(torso);

@@ -172,6 +172,15 @@ TEST(Chains, ABipedHierarchyHasThePlainBodysChains) {
     EXPECT_EQ(end, "head");
     EXPECT_EQ(b.chain(set, "arm_l", &end), (std::vector<std::string>{"clavicle_l", "upperarm_l", "forearm_l"}));
     EXPECT_EQ(b.chain(set, "leg_r", &end), (std::vector<std::string>{"thigh_r", "shin_r"}));
+    // A skinned bone above the hips with its head on the hips' head (a centre-of-gravity bone)
+    // is no link: it would have no length.
+    StickBody cog = b;
+    cog.add("cog", "", {0, 0, 1.0}, {0, 0.1, 1.0});
+    cog.parents[cog.index("hips")] = cog.index("cog");
+    std::vector<double> cog_mass = mass;
+    cog_mass.push_back(1.0);
+    EXPECT_EQ(cog.chain(fit::find_chains(cog.skeleton(), cog.names, cog_mass), "torso", &end),
+              (std::vector<std::string>{"hips", "spine", "chest"}));
     // A neck carrying as much skin as the chest is a chest (a rig without a neck bone whose
     // arms start at the chest's head): the torso runs on to the head.
     mass[b.index("neck")] = 1.0;
