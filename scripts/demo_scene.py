@@ -120,28 +120,38 @@ def key_poses(scene, action):
     return [("rest", start)] + [(f"frame_{int(f)}", int(f)) for f in np.linspace(start, end, 6).astype(int)[1:]]
 
 
+def copied_character(arm, body):
+    """A copy of the character in the same collections: the armature object sharing the
+    armature data (its animation data copied: action, slot), the body with its own mesh,
+    parented to the copied armature if the body was to the armature."""
+    a = arm.copy()
+    b = body.copy()
+    b.data = body.data.copy()
+    for coll in arm.users_collection:
+        coll.objects.link(a)
+    for coll in body.users_collection:
+        coll.objects.link(b)
+    if body.parent == arm:
+        b.parent = a
+    return a, b
+
+
+def method_modifier(arm, body, key):
+    """Points the body's Armature modifier at `arm`, with Preserve Volume for that method."""
+    mod = next(m for m in body.modifiers if m.type == 'ARMATURE')
+    mod.object = arm
+    mod.use_deform_preserve_volume = key == "preserve_volume"
+
+
 def make_columns(arm, body, spacing):
     """One (armature, body) pair per method, side by side; the original is the first. The
     Sweep Deform columns are each bound (the same automatic fitting), the last with the
     anatomical effects on."""
     columns = []
     for i, (key, label) in enumerate(METHODS):
-        if i == 0:
-            a, b = arm, body
-        else:
-            a = arm.copy()  # shares the armature data; copies the animation data (action, slot)
-            b = body.copy()
-            b.data = body.data.copy()
-            for coll in arm.users_collection:
-                coll.objects.link(a)
-            for coll in body.users_collection:
-                coll.objects.link(b)
-            if body.parent == arm:
-                b.parent = a
-            a.location.x += i * spacing
-        mod = next(m for m in b.modifiers if m.type == 'ARMATURE')
-        mod.object = a
-        mod.use_deform_preserve_volume = key == "preserve_volume"
+        a, b = (arm, body) if i == 0 else copied_character(arm, body)
+        a.location.x += i * spacing
+        method_modifier(a, b, key)
         columns.append({"key": key, "label": label, "arm": a, "body": b})
     bpy.context.view_layer.update()
     for sweep in columns:
@@ -180,6 +190,17 @@ def setup_render(scene, width, height):
     if scene.world is None:
         scene.world = bpy.data.worlds.new("World")
     scene.world.color = (0.92, 0.92, 0.92)
+
+
+def ortho_camera(scene, name, ortho_scale):
+    """A new orthographic camera, the scene's camera from now on."""
+    cam = bpy.data.objects.new(name, bpy.data.cameras.new(name))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    cam.data.type = 'ORTHO'
+    cam.data.ortho_scale = ortho_scale
+    cam.data.clip_end = 100.0
+    return cam
 
 
 def front_camera(scene, lo, hi, margin=1.08):

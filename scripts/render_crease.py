@@ -52,12 +52,7 @@ def main():
 
     scene = bpy.context.scene
     demo_scene.setup_render(scene, 520, 520)
-    cam = bpy.data.objects.new("CreaseCamera", bpy.data.cameras.new("CreaseCamera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.data.type = 'ORTHO'
-    cam.data.ortho_scale = args.size
-    cam.data.clip_end = 100.0
+    cam = demo_scene.ortho_camera(scene, "CreaseCamera", args.size)
     pb = arm.pose.bones[joint.bone]
     where = np.array(arm.matrix_world @ pb.head)
     views = [((where[0] + 10.0, where[1], where[2]), (np.pi / 2, 0.0, np.pi / 2)),           # from +X

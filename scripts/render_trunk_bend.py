@@ -61,18 +61,8 @@ def main():
         pb.matrix_basis = Matrix.Identity(4)
     columns = []
     for i, (key, label) in enumerate(METHODS):
-        a, b = (arm, body) if i == 0 else (arm.copy(), body.copy())
-        if i:
-            b.data = body.data.copy()
-            for coll in arm.users_collection:
-                coll.objects.link(a)
-            for coll in body.users_collection:
-                coll.objects.link(b)
-            if body.parent == arm:
-                b.parent = a
-        mod = next(m for m in b.modifiers if m.type == 'ARMATURE')
-        mod.object = a
-        mod.use_deform_preserve_volume = key == "preserve_volume"
+        a, b = (arm, body) if i == 0 else demo_scene.copied_character(arm, body)
+        demo_scene.method_modifier(a, b, key)
         columns.append((a, b, label))
     bpy.context.view_layer.update()
     a, b, _ = columns[-1]
@@ -85,12 +75,7 @@ def main():
 
     scene = bpy.context.scene
     demo_scene.setup_render(scene, 480, 560)
-    cam = bpy.data.objects.new("BendCamera", bpy.data.cameras.new("BendCamera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.data.type = 'ORTHO'
-    cam.data.ortho_scale = 0.95
-    cam.data.clip_end = 100.0
+    cam = demo_scene.ortho_camera(scene, "BendCamera", 0.95)
     hips = np.array(arm.matrix_world @ arm.pose.bones[args.bones.split(",")[0]].head)
     centre = Vector((hips[0], hips[1] - 0.22, hips[2] + 0.12))
 
