@@ -252,8 +252,13 @@ double sweep_folding(const Sweep& s, const SweepGeometry& posed, const std::vect
 
 }  // namespace
 
-bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, std::vector<double>& a,
-                          std::vector<double>& b, std::vector<dvec3>& shifts) {
+double folding_hold(const Sweep& s, const SweepGeometry& posed, const std::vector<double>& a,
+                    const std::vector<double>& b) {
+    return 1.0 - smoothstep01((sweep_folding(s, posed, a, b) - kFoldingFrom) / kFoldingWidth);
+}
+
+bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double strength, double hold,
+                          std::vector<double>& a, std::vector<double>& b, std::vector<dvec3>& shifts) {
     // A thick chain bent by blended transforms is compressed on the inside, so its sweep is
     // shorter than at rest where it bends; each key's cross-section grows by what its two
     // spans lost (mean), so the volume comes back where it was lost, not at a few joint keys
@@ -285,13 +290,12 @@ bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
     // 1.54x its rest distance, Preserve Volume 1.07); grown along the bend's axis alone its
     // flanks rose in a band where it bends; all inside, the belly folded into a notch.
     constexpr double kInside = 0.35;
-    // Where the sweep bends sharply for the body's depth (sweep_folding), none goes inside:
+    // Where the sweep bends sharply for the body's depth (folding_hold), none goes inside:
     // growth there fills a fold that is already closing (with the hold fading over the same
     // range, MakeHuman bent 52.5 degrees: largest crease of the trunk 57 degrees with the share
     // kept, 52 faded). One share for the whole sweep, from its sharpest key (a share per key
     // rippled the belly).
-    const double inside =
-        kInside * (1.0 - smoothstep01((sweep_folding(s, posed, a, b) - kFoldingFrom) / kFoldingWidth));
+    const double inside = kInside * hold;
     bool moved = false;
     for (int k = 0; k < K; ++k) {
         double r = 0.0, w = 0.0;
@@ -429,14 +433,17 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         double strength = volume_enabled_ && volume_strength_ > 0.0
                               ? volume_strength_ * control_trust(s, s.quadrature, density, form)
                               : 0.0;
+        double hold = 1.0;
         // A thick chain bent sharply for its depth is not filled out: there the volume came
         // back as a belt across the belly (MakeHuman bent 60 degrees: the trunk's skin 1.44x
         // its rest distance from the spine, 1.19 without; linear blend skinning 1.12), and its
         // planes cross inside the body whatever is held. Full below kFoldingFrom (the
         // instrument's 45 degree bend), none from kFoldingFrom + kFoldingWidth; half drew half
         // the belt.
-        if (strength > 0.0 && s.bends_smoothly)
-            strength *= 1.0 - smoothstep01((sweep_folding(s, g, a, b) - kFoldingFrom) / kFoldingWidth);
+        if (strength > 0.0 && s.bends_smoothly) {
+            hold = folding_hold(s, g, a, b);
+            strength *= hold;
+        }
         if (strength > 0.0) {
             const double before = form.volume(a.data(), b.data());
             // V0 of the corrected rest pose, plus what the artist's scaling adds in this pose
@@ -448,7 +455,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             // First where it was lost, key by key; the controller corrects what is left.
             if (s.bends_smoothly) {
                 std::vector<dvec3> shifts;
-                if (restore_local_volume(s, g, strength, a, b, shifts)) {  // keys moved: a new sweep
+                if (restore_local_volume(s, g, strength, hold, a, b, shifts)) {  // keys moved: a new sweep
                     for (int k = 0; k < s.key_count(); ++k) centers[k] += shifts[k];
                     g = SweepGeometry(centers, rotations);
                     density = volume_density(s.quadrature, g);

@@ -58,14 +58,11 @@ struct Tree {
         children.resize(count);
         length.resize(count);
         reach.resize(count);
-        dvec3 lo(std::numeric_limits<double>::infinity()), hi = -lo;
         for (int b = 0; b < count; ++b) {
             if (s.parents[b] >= 0) children[s.parents[b]].push_back(b);
             length[b] = glm::length(s.tails[b] - s.heads[b]);
-            lo = glm::min(lo, glm::min(s.heads[b], s.tails[b]));
-            hi = glm::max(hi, glm::max(s.heads[b], s.tails[b]));
         }
-        size = std::max(glm::length(hi - lo), 1e-300);
+        size = std::max(s.extent(), 1e-300);
         order = parents_first(skeleton);
         if (!bone_mass.empty()) mass = own_mass = bone_mass;
         for (auto it = order.rbegin(); it != order.rend(); ++it) {  // children are done first
@@ -174,7 +171,7 @@ struct Tree {
 /// bone at the floor does not), but not on it (a link from the one head to the other would
 /// have no length).
 bool pelvis_above_hips(const Tree& t, int bone, int first) {
-    if (t.mass.empty() || t.own_mass.empty()) return false;
+    if (t.own_mass.empty()) return false;
     double total = 0.0;
     for (double m : t.own_mass) total += m;
     const double apart = glm::length(t.s.heads[bone] - t.s.heads[first]);

@@ -103,12 +103,7 @@ Skeleton deform_hierarchy(const Skeleton& skeleton, const std::vector<double>& b
     });
     const int main_root = *main_it;
     waiting.erase(main_it);
-    dvec3 lo(std::numeric_limits<double>::infinity()), hi = -lo;
-    for (int b = 0; b < B; ++b) {
-        lo = glm::min(lo, glm::min(skeleton.heads[b], skeleton.tails[b]));
-        hi = glm::max(hi, glm::max(skeleton.heads[b], skeleton.tails[b]));
-    }
-    const double reach = kDeformRootReach * glm::length(hi - lo);
+    const double reach = kDeformRootReach * skeleton.extent();
     // Each waiting root keeps its nearest hung bone, updated with each tree as it is hung.
     std::vector<double> nearest(B, std::numeric_limits<double>::infinity());
     std::vector<int> nearest_bone(B, -1);

@@ -211,10 +211,15 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
     }
     // The chains are read from the skinned bones' hierarchy (a Rigify rig's deform bones hang
     // from its mechanism bones); the rig keeps the skeleton as it is.
-    std::vector<std::string> hung;
-    const Skeleton deforming = in.chains.empty() ? deform_hierarchy(s, mass, in.bone_names, &hung) : s;
-    r.chains = in.chains.empty() ? find_chains(deforming, in.bone_names, mass) : chains_from_lists(s, in.chains);
-    r.chains.notes.insert(r.chains.notes.begin(), hung.begin(), hung.end());
+    Skeleton deforming = s;
+    if (in.chains.empty()) {
+        std::vector<std::string> hung;
+        deforming = deform_hierarchy(s, mass, in.bone_names, &hung);
+        r.chains = find_chains(deforming, in.bone_names, mass);
+        r.chains.notes.insert(r.chains.notes.begin(), hung.begin(), hung.end());
+    } else {
+        r.chains = chains_from_lists(s, in.chains);
+    }
     const int C = static_cast<int>(r.chains.chains.size());
     const BoneOwners owners = bone_owners(deforming, r.chains);
     const bool use_skin = skinned && !mass.empty();

@@ -1,6 +1,7 @@
 #include "rig/skeleton.h"
 
 #include <cmath>
+#include <limits>
 
 namespace sd {
 
@@ -38,6 +39,15 @@ Skeleton Skeleton::from_arrays(int count, const int* parents, const float* rest,
         t[b] = dvec3(tails[3 * b], tails[3 * b + 1], tails[3 * b + 2]);
     }
     return build(std::vector<int>(parents, parents + count), std::move(r), std::move(h), std::move(t));
+}
+
+double Skeleton::extent() const {
+    dvec3 lo(std::numeric_limits<double>::infinity()), hi = -lo;
+    for (int b = 0; b < bone_count(); ++b) {
+        lo = glm::min(lo, glm::min(heads[b], tails[b]));
+        hi = glm::max(hi, glm::max(heads[b], tails[b]));
+    }
+    return glm::length(hi - lo);
 }
 
 Skeleton Skeleton::build(std::vector<int> parents, std::vector<dmat4> rest, std::vector<dvec3> heads,

@@ -15,6 +15,8 @@ struct Skeleton {
     std::vector<dvec3> heads, tails;
 
     int bone_count() const { return static_cast<int>(parents.size()); }
+    /// The diagonal of the heads' and tails' bounding box: the skeleton's size.
+    double extent() const;
 
     /// Validates and stores the arrays (see sd_rig_create). @throws InvalidInput
     static Skeleton from_arrays(int bone_count, const int* parents, const float* rest, const float* heads,

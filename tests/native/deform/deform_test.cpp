@@ -108,7 +108,7 @@ TEST(Deform, LocalRestorationGrowsSectionsInsideTheBendAndAlongItsAxis) {
         const SweepGeometry posed(centers, rotations);
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         std::vector<dvec3> shifts;
-        restore_local_volume(s, posed, 1.0, a, b, shifts);
+        restore_local_volume(s, posed, 1.0, folding_hold(s, posed, a, b), a, b, shifts);
         const int elbow = 3;
         const double ra = a[elbow] / s.rest_half_axes.a[elbow], rb = b[elbow] / s.rest_half_axes.b[elbow];
         const double area = ra * rb;
