@@ -17,7 +17,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+from rigged_body import open_rigged_body, select_only  # noqa: E402  (a sibling module, on the path just above)
 
 NEW_PARENTS = {"thigh_l": "spine_01", "thigh_r": "spine_01", "clavicle_l": "neck_01", "clavicle_r": "neck_01"}
 
@@ -28,9 +28,7 @@ def main():
     missing = [n for n in list(NEW_PARENTS) + list(NEW_PARENTS.values()) if n not in armature.data.bones]
     if missing:
         raise SystemExit(f"biped_body: the armature has no bones {sorted(set(missing))}")
-    bpy.context.view_layer.objects.active = armature
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == armature)
+    select_only(armature)
     bpy.ops.object.mode_set(mode="EDIT")
     eb = armature.data.edit_bones
     for child, parent in NEW_PARENTS.items():

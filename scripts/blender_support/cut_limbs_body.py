@@ -15,7 +15,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body, pass_weight, smoothstep  # noqa: E402  (a sibling, on the path above)
+from rigged_body import open_rigged_body, pass_weight, select_only, smoothstep  # noqa: E402  (a sibling module)
 
 LIMB_BONES = [f"{bone}_{side}" for side in ("l", "r") for bone in ("upperarm", "lowerarm", "thigh", "calf")]
 
@@ -28,9 +28,7 @@ def cut_in_two(body, armature, names):
     if missing:
         raise ValueError(f"no bone or vertex group {missing}")
     ends = {n: (armature.data.bones[n].head_local.copy(), armature.data.bones[n].tail_local.copy()) for n in names}
-    bpy.context.view_layer.objects.active = armature
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == armature)
+    select_only(armature)
     bpy.ops.object.mode_set(mode="EDIT")
     for eb in armature.data.edit_bones:
         eb.select = eb.select_head = eb.select_tail = eb.name in names

@@ -12,15 +12,13 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+from rigged_body import open_rigged_body, select_only  # noqa: E402  (a sibling module, on the path just above)
 
 
 def main():
     source, ratio, out = sys.argv[sys.argv.index("--") + 1:][:3]
     body, _ = open_rigged_body(source, "decimated_body")
-    bpy.context.view_layer.objects.active = body
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == body)
+    select_only(body)
     before = len(body.data.vertices)
     mod = body.modifiers.new("LOD", "DECIMATE")
     mod.ratio = float(ratio)

@@ -17,7 +17,7 @@ import bpy
 from mathutils import Matrix, Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+from rigged_body import open_rigged_body, select_only  # noqa: E402  (a sibling module, on the path just above)
 
 
 def main():
@@ -40,9 +40,7 @@ def main():
     for o, m in worlds.items():
         o.matrix_world = about @ m
     bpy.context.view_layer.update()
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in worlds)
-    bpy.context.view_layer.objects.active = armature
+    select_only(armature, body)
     bpy.ops.object.transform_apply(location=False, rotation=False, scale=True)
     bpy.context.view_layer.update()
 

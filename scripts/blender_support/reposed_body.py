@@ -15,7 +15,7 @@ import bpy
 from mathutils import Matrix, Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body  # noqa: E402  (a sibling module, on the path just above)
+from rigged_body import open_rigged_body, select_only  # noqa: E402  (a sibling module, on the path just above)
 
 UPPER_ARMS = ("upperarm_l", "upperarm_r")
 
@@ -47,15 +47,11 @@ def main():
     settings = {k: getattr(mod, k) for k in ("object", "use_vertex_groups", "use_bone_envelopes",
                                              "use_deform_preserve_volume")}
     name, index = mod.name, list(body.modifiers).index(mod)
-    bpy.context.view_layer.objects.active = body
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == body)
+    select_only(body)
     bpy.ops.object.modifier_apply(modifier=name)
 
     # And the armature takes it as its rest pose.
-    bpy.context.view_layer.objects.active = armature
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == armature)
+    select_only(armature)
     bpy.ops.object.mode_set(mode="POSE")
     bpy.ops.pose.armature_apply(selected=False)
     bpy.ops.object.mode_set(mode="OBJECT")

@@ -15,6 +15,14 @@ def open_rigged_body(source, who):
     return bodies[0], bodies[0].find_armature()
 
 
+def select_only(active, *also):
+    """Makes `active` the active object and it (and `also`) the only selected objects, as the
+    operators that follow (mode switches, apply, subdivide) need."""
+    bpy.context.view_layer.objects.active = active
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == active or o in also)
+
+
 def smoothstep(x):
     x = min(max(x, 0.0), 1.0)
     return x * x * (3.0 - 2.0 * x)

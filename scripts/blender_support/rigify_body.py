@@ -23,7 +23,7 @@ import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from cut_limbs_body import cut_in_two  # noqa: E402  (a sibling module, on the path just above)
-from rigged_body import open_rigged_body  # noqa: E402
+from rigged_body import open_rigged_body, select_only  # noqa: E402
 
 SIDES = (("l", "L"), ("r", "R"))
 # Source finger -> Rigify finger, and the metarig's palm bone each hangs from.
@@ -81,12 +81,6 @@ def joints(armature):
             if finger in PALMS:  # the palm bone from a third of the way along the hand to the finger
                 out[f"{PALMS[finger]}.{S}"] = (head(f"hand_{s}").lerp(j[0], 0.3), j[0])
     return out
-
-
-def select_only(obj):
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == obj)
-    bpy.context.view_layer.objects.active = obj
 
 
 def placed_metarig(armature):

@@ -15,7 +15,7 @@ import sys
 import bpy
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body, pass_weight, smoothstep  # noqa: E402  (a sibling, on the path above)
+from rigged_body import open_rigged_body, pass_weight, select_only, smoothstep  # noqa: E402  (a sibling module)
 
 # (limb bone, over its lower half?) per side
 LIMBS = [(f"{bone}_{side}", lower) for side in ("l", "r")
@@ -32,9 +32,7 @@ def add_twist_bones(body, armature):
     if missing:
         raise ValueError(f"no bone or vertex group {missing}")
     ends = {n: (armature.data.bones[n].head_local.copy(), armature.data.bones[n].tail_local.copy()) for n, _ in LIMBS}
-    bpy.context.view_layer.objects.active = armature
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == armature)
+    select_only(armature)
     bpy.ops.object.mode_set(mode="EDIT")
     for name, lower in LIMBS:
         head, tail = ends[name]
