@@ -23,6 +23,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 sys.path.insert(0, os.path.join(HERE, "blender_support"))
 import demo_scene  # noqa: E402  (character loading, installation, render settings)
+import flexion  # noqa: E402
 import install  # noqa: E402
 
 METHODS = (("armature", "Armature"), ("preserve_volume", "Preserve Volume"), ("sweep_deform", "Sweep Deform"))
@@ -43,13 +44,8 @@ def parse_args():
 
 def bend(arm, bones, degrees):
     """Turns each bone forward (about the world's +X, the body's left) through its head."""
-    world = arm.matrix_world
     for name in bones:
-        pb = arm.pose.bones[name]
-        head = world @ pb.head
-        turn = Matrix.Translation(head) @ Matrix.Rotation(np.radians(degrees), 4, 'X') @ Matrix.Translation(-head)
-        pb.matrix = world.inverted() @ turn @ world @ pb.matrix
-        bpy.context.view_layer.update()
+        flexion.turn_about_head(arm, name, Matrix.Rotation(np.radians(degrees), 3, 'X'))
 
 
 def main():

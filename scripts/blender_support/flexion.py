@@ -1,9 +1,21 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Exact joint flexion on an armature (used by test_anatomy.py and scripts/render_crease.py)."""
+"""Exact joint flexion on an armature (used by test_anatomy.py and scripts/render_crease.py), and
+a bone turned about its own head (the made bodies, the trunk's pictures, test_deform.py)."""
 
 import bpy
 import numpy as np
 from mathutils import Matrix, Vector
+
+
+def turn_about_head(arm, name, rotation):
+    """Turns the pose bone `name` (and so its children) by `rotation`, a 3x3 rotation in world
+    space, about its head, on top of the armature's current pose; updates the view layer."""
+    pb = arm.pose.bones[name]
+    world = arm.matrix_world
+    head = world @ pb.head
+    turn = Matrix.Translation(head) @ rotation.to_4x4() @ Matrix.Translation(-head)
+    pb.matrix = world.inverted() @ turn @ world @ pb.matrix
+    bpy.context.view_layer.update()
 
 
 def link_angle(arm, lower):

@@ -12,10 +12,11 @@ import os
 import sys
 
 import bpy
-from mathutils import Matrix, Vector
+from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rigged_body import open_rigged_body, select_only  # noqa: E402  (a sibling module, on the path just above)
+from flexion import turn_about_head  # noqa: E402  (sibling modules, on the path just above)
+from rigged_body import open_rigged_body, select_only  # noqa: E402
 
 UPPER_ARMS = ("upperarm_l", "upperarm_r")
 
@@ -29,10 +30,7 @@ def raise_arm(armature, name):
     now = (tail - head).normalized()
     # Straight out sideways, on the arm's own side, level.
     target = Vector((1.0 if now.x > 0.0 else -1.0, 0.0, 0.0))
-    turn = now.rotation_difference(target).to_matrix().to_4x4()
-    about_head = Matrix.Translation(head) @ turn @ Matrix.Translation(-head)
-    bone.matrix = world.inverted() @ about_head @ world @ bone.matrix
-    bpy.context.view_layer.update()
+    turn_about_head(armature, name, now.rotation_difference(target).to_matrix())
     print(f"reposed_body: {name} turned {now.angle(target) * 57.29578:.1f} degrees")
 
 

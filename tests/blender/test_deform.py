@@ -11,6 +11,7 @@ import mathutils
 import numpy as np
 import pytest
 
+import flexion
 import helpers
 
 
@@ -126,18 +127,6 @@ def test_limb_bones_cut_in_two_deform_as_uncut():
     assert worst < 1e-5 * diag
 
 
-def _turned(arm, bone, axis, angle):
-    """Turns the pose bone `bone` (and so its children) by `angle` about the world `axis`
-    through its head, in the armature's current pose."""
-    pb = arm.pose.bones[bone]
-    world = arm.matrix_world
-    head = world @ pb.head
-    turn = (mathutils.Matrix.Translation(head) @ mathutils.Matrix.Rotation(angle, 4, axis)
-            @ mathutils.Matrix.Translation(-head))
-    pb.matrix = world.inverted() @ turn @ world @ pb.matrix
-    bpy.context.view_layer.update()
-
-
 def test_a_rigify_rig_binds_and_deforms_as_its_source(tmp_path):
     """A rig Rigify generates (Blender's own rigging system; scripts/blender_support/
     rigify_body.py puts the shipped MakeHuman male on one) hangs its deform bones from mechanism
@@ -180,8 +169,8 @@ def _rigify_binds_and_deforms_as_its_source(source, rigified_path):
         assert obj.sweep_deform.state == 'BOUND'
         elbow = arm.matrix_world @ arm.pose.bones[forearm].head
         wrist = arm.matrix_world @ arm.pose.bones[hand].head
-        _turned(arm, forearm, mathutils.Vector((1.0, 0.0, 0.0)), 1.2)
-        _turned(arm, hand, (wrist - elbow).normalized(), 2.0)
+        flexion.turn_about_head(arm, forearm, mathutils.Matrix.Rotation(1.2, 3, 'X'))
+        flexion.turn_about_head(arm, hand, mathutils.Matrix.Rotation(2.0, 3, (wrist - elbow).normalized()))
         co, _ = helpers.evaluated_positions(obj)
         m = np.array(obj.matrix_world, np.float64)
         world[rigified] = co @ m[:3, :3].T + m[:3, 3]
