@@ -10,15 +10,18 @@
 #include "dihedral.h"
 #include "turned_pose.h"
 #include "deform/deform.h"
+#include "math/segment_distance.h"
 
 #include <sweepdeform_io/gltf_loader.h>
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -84,30 +87,28 @@ TEST_P(TrunkBend, TheBellyNeitherFoldsNorSwells) {
     std::vector<int> spine_bones;
     for (const char* name : {"pelvis", "spine_01", "spine_02", "spine_03"})
         spine_bones.push_back(character_fit::bone_named(c, name));
-    const auto spine_distance = [&](const dvec3& p, bool posed) {
-        double d = 1e30;
-        for (int sb : spine_bones) {
-            dvec3 h = s.heads[sb], t = s.tails[sb];
-            dmat4 M;
-            for (int col = 0; col < 4; ++col)
-                for (int row = 0; row < 4; ++row) M[col][row] = pose[16 * sb + 4 * col + row];
-            const dmat4 D = posed ? M * s.rest_inverse[sb] : dmat4(1.0);
-            h = dvec3(D * dvec4(h, 1.0));
-            t = dvec3(D * dvec4(t, 1.0));
-            const dvec3 e = t - h;
-            const double u = std::clamp(glm::dot(p - h, e) / glm::dot(e, e), 0.0, 1.0);
-            d = std::min(d, glm::length(p - h - u * e));
-        }
+    SkeletonPose posed;
+    posed.set(s, pose.data());
+    std::vector<std::array<dvec3, 2>> rest_segments, posed_segments;
+    for (int sb : spine_bones) {
+        rest_segments.push_back({s.heads[sb], s.tails[sb]});
+        posed_segments.push_back(
+            {dvec3(posed.deform[sb] * dvec4(s.heads[sb], 1.0)), dvec3(posed.deform[sb] * dvec4(s.tails[sb], 1.0))});
+    }
+    const auto spine_distance = [](const dvec3& p, const std::vector<std::array<dvec3, 2>>& segments) {
+        double d = std::numeric_limits<double>::infinity();
+        for (const auto& [head, tail] : segments) d = std::min(d, segment_distance(p, head, tail));
         return d;
     };
     double rmax = 0.0, rmax_lbs = 0.0;
     for (int v = 0; v < V; ++v) {
         if (!watched[v]) continue;
         const dvec3 p0(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
-        const double d0 = spine_distance(p0, false);
+        const double d0 = spine_distance(p0, rest_segments);
         if (d0 < 0.03) continue;
-        rmax = std::max(rmax, spine_distance(dvec3(out[3 * v], out[3 * v + 1], out[3 * v + 2]), true) / d0);
-        rmax_lbs = std::max(rmax_lbs, spine_distance(dvec3(lbs[3 * v], lbs[3 * v + 1], lbs[3 * v + 2]), true) / d0);
+        rmax = std::max(rmax, spine_distance(dvec3(out[3 * v], out[3 * v + 1], out[3 * v + 2]), posed_segments) / d0);
+        rmax_lbs =
+            std::max(rmax_lbs, spine_distance(dvec3(lbs[3 * v], lbs[3 * v + 1], lbs[3 * v + 2]), posed_segments) / d0);
     }
     std::printf("%s: largest crease of the trunk %.1f deg (linear blend skinning %.1f), r_max %.3f (%.3f)\n", bend.what,
                 sweep, skinning, rmax, rmax_lbs);
