@@ -143,6 +143,31 @@ def method_modifier(arm, body, key):
     mod.use_deform_preserve_volume = key == "preserve_volume"
 
 
+#: Blender's two deformers and ours, for pictures side by side.
+DEFORMERS = (("armature", "Armature"), ("preserve_volume", "Preserve Volume"), ("sweep_deform", "Sweep Deform"))
+
+
+def deformer_copies(arm, body, script):
+    """The character at rest in one copy per DEFORMERS entry (the first is the character
+    itself): [(armature, body, label)], the last bound by Sweep Deform's automatic fitting;
+    exits naming `script` if the binding fails."""
+    if arm.animation_data:
+        arm.animation_data.action = None
+    for pb in arm.pose.bones:
+        pb.matrix_basis = Matrix.Identity(4)
+    columns = []
+    for i, (key, label) in enumerate(DEFORMERS):
+        a, b = (arm, body) if i == 0 else copied_character(arm, body)
+        method_modifier(a, b, key)
+        columns.append((a, b, label))
+    bpy.context.view_layer.update()
+    a, b, _ = columns[-1]
+    with bpy.context.temp_override(object=b, active_object=b, selected_objects=[b]):
+        if bpy.ops.object.sweep_deform_add(armature=a.name) != {'FINISHED'}:
+            sys.exit(f"{script}: binding failed: {b.sweep_deform.message}")
+    return columns
+
+
 def make_columns(arm, body, spacing):
     """One (armature, body) pair per method, side by side; the original is the first. The
     Sweep Deform columns are each bound (the same automatic fitting), the last with the

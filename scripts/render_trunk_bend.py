@@ -26,8 +26,6 @@ import demo_scene  # noqa: E402  (character loading, installation, render settin
 import flexion  # noqa: E402
 import install  # noqa: E402
 
-METHODS = (("armature", "Armature"), ("preserve_volume", "Preserve Volume"), ("sweep_deform", "Sweep Deform"))
-
 
 def parse_args():
     argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
@@ -52,19 +50,8 @@ def main():
     args = parse_args()
     arm, body = demo_scene.load_character(os.path.abspath(args.character), "")
     install.install(args.zip)
-    arm.animation_data.action = None
-    for pb in arm.pose.bones:
-        pb.matrix_basis = Matrix.Identity(4)
-    columns = []
-    for i, (key, label) in enumerate(METHODS):
-        a, b = (arm, body) if i == 0 else demo_scene.copied_character(arm, body)
-        demo_scene.method_modifier(a, b, key)
-        columns.append((a, b, label))
-    bpy.context.view_layer.update()
-    a, b, _ = columns[-1]
-    with bpy.context.temp_override(object=b, active_object=b, selected_objects=[b]):
-        if bpy.ops.object.sweep_deform_add(armature=a.name) != {'FINISHED'}:
-            sys.exit(f"render_trunk_bend: binding failed: {b.sweep_deform.message}")
+    columns = demo_scene.deformer_copies(arm, body, "render_trunk_bend")
+    b = columns[-1][1]
     b.sweep_deform.use_volume_preservation = not args.no_volume
     for a, _, _ in columns:
         bend(a, args.bones.split(","), args.degrees)

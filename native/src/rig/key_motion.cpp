@@ -158,10 +158,11 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
     return motions;
 }
 
-double lowering_swing_share(const KeyMotion& m, const dquat& swing) {
+double shoulder_swing_share(const KeyMotion& m, const dquat& swing) {
     if (m.lowering == dvec3(0.0)) return m.swing_share;
     const double lowered = glm::dot(swing * m.axis - m.axis, m.lowering);
-    return m.swing_share + (m.lowering_share - m.swing_share) * smoothstep01(lowered / kFullLowering);
+    const double towards = lowered >= 0.0 ? m.lowering_share : m.raising_share;
+    return m.swing_share + (towards - m.swing_share) * smoothstep01(std::abs(lowered) / kFullLowering);
 }
 
 }  // namespace sd

@@ -42,21 +42,23 @@ struct KeyMotion {
     /// it. Between keys the trajectory turns with the frame's twist about each key's axis
     /// (twisted_trajectory.h) rather than cutting the chord between twisted centers.
     dvec3 twist_axis{0.0};
-    /// An arm's first key (the shoulder): the body's down at rest, else zero. As the swing
-    /// lowers the arm towards it the key takes up to `lowering_share` of the swing instead of
-    /// `swing_share` (lowering_swing_share).
+    /// An arm's first two keys (the shoulder and the key after it, trunk.h): the body's down at
+    /// rest, else zero. As the swing lowers the arm towards it the key takes up to
+    /// `lowering_share` of the swing instead of `swing_share`, as it raises the arm up to
+    /// `raising_share` (shoulder_swing_share).
     dvec3 lowering{0.0};
-    double lowering_share = 0.0;
+    double lowering_share = 0.0, raising_share = 0.0;
 };
 
 /// How far (the change of the link's unit direction along the body's down) a swing must lower
-/// an arm before its shoulder key takes the whole of `lowering_share`.
+/// or raise an arm before its shoulder keys take the whole of `lowering_share` or `raising_share`.
 constexpr double kFullLowering = 0.5;
 
-/// The share of the swing a joint key takes: `swing_share`, rising smoothly to
-/// `lowering_share` as the swing carries the key's rest normal `axis` towards `lowering`.
-/// Continuous in the swing; equal to `swing_share` for a key with no `lowering`.
-double lowering_swing_share(const KeyMotion& m, const dquat& swing);
+/// The share of the swing a joint key takes: `swing_share`, moving smoothly to
+/// `lowering_share` as the swing carries the key's rest normal `axis` towards `lowering`, and to
+/// `raising_share` as it carries it away. Continuous in the swing; equal to `swing_share` for a
+/// key with no `lowering`.
+double shoulder_swing_share(const KeyMotion& m, const dquat& swing);
 
 /// A chain is thick when its intermediate keys' larger half-axis is at least this share of
 /// their link's length (median over the keys): a torso, not an arm or a leg.

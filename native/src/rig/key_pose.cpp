@@ -64,7 +64,7 @@ void pose_keys(const Sweep& sweep, const SkeletonPose& pose, std::vector<dvec3>&
         const dquat relative = glm::conjugate(from) * pose.rotation[m.to_bone];
         dquat swing, twist;
         swing_twist(relative, m.axis, &swing, &twist);
-        rotations[k] = glm::normalize(from * fraction_of(swing, lowering_swing_share(m, swing)) *
+        rotations[k] = glm::normalize(from * fraction_of(swing, shoulder_swing_share(m, swing)) *
                                       fraction_of(twist, m.twist_share) * e.orientation);
         if (m.turns_about_pivot) {
             const dvec3 pivot(pose.deform[e.bone] * dvec4(m.pivot, 1.0));

@@ -228,7 +228,7 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
 int Rig::add_sweep(std::vector<KeyEllipse> keys) {
     if (sweeps.size() >= 1024) throw InvalidInput("a rig holds at most 1024 sweeps");
     sweeps.push_back(make_sweep(std::move(keys), skeleton));
-    set_shoulder_lowering(*this);
+    set_shoulder_motions(*this);
     return static_cast<int>(sweeps.size()) - 1;
 }
 

@@ -19,8 +19,10 @@ std::vector<char> sweeps_leaving_trunk_sideways(const Rig& rig);
 dvec3 trunk_axis(const Rig& rig);
 
 /// Sets each arm's shoulder key (the first key of a sweep leaving the trunk sideways) to take
-/// the whole swing as the arm is lowered towards the body's down (KeyMotion::lowering), and
-/// clears that on every other sweep. Called whenever the rig gains a sweep.
-void set_shoulder_lowering(Rig& rig);
+/// the whole swing as the arm is lowered towards the body's down (KeyMotion::lowering) and 0.6
+/// of it as the arm is raised, and the key after it (on the same bone) to follow the arm's
+/// whole swing as it is lowered and 0.88 of it as it is raised; clears that on every other
+/// sweep. Called whenever the rig gains a sweep.
+void set_shoulder_motions(Rig& rig);
 
 }  // namespace sd

@@ -89,31 +89,36 @@ TEST(KeyMotion, ThickChainKeysLeanToTheBoneTheySitOn) {
     }
 }
 
-// An arm's first key (the shoulder) takes half of the swing, as the paper's joint keys do,
-// and all of it as the swing lowers the arm towards the body's down (trunk.h,
-// set_shoulder_lowering): an arm pointing along +x, the body's down -z.
-TEST(KeyMotion, AShoulderKeyTakesTheWholeSwingOnlyAsTheArmIsLowered) {
+// An arm's first key (the shoulder) takes half of the swing at rest and across, as the paper's
+// joint keys do, all of it as the swing lowers the arm towards the body's down and 0.6 of it as
+// the swing raises the arm (trunk.h, set_shoulder_motions): an arm pointing along +x, the body's
+// down -z.
+TEST(KeyMotion, AShoulderKeyTakesTheWholeSwingAsTheArmIsLoweredAndMoreThanHalfAsItIsRaised) {
     KeyMotion m;
     m.swing_share = 0.5;
     m.axis = dvec3(1, 0, 0);
     m.lowering = dvec3(0, 0, -1);
     m.lowering_share = 1.0;
+    m.raising_share = 0.6;
     const auto swing = [](const dvec3& about, double degrees) { return glm::angleAxis(glm::radians(degrees), about); };
-    EXPECT_DOUBLE_EQ(lowering_swing_share(m, swing(dvec3(0, 1, 0), 70.0)), 1.0);   // lowered
-    EXPECT_DOUBLE_EQ(lowering_swing_share(m, swing(dvec3(0, 1, 0), -70.0)), 0.5);  // raised
-    EXPECT_DOUBLE_EQ(lowering_swing_share(m, swing(dvec3(0, 0, 1), 70.0)), 0.5);   // swung forward
-    EXPECT_DOUBLE_EQ(lowering_swing_share(m, dquat(1, 0, 0, 0)), 0.5);             // at rest
-    // Continuous and rising with the lowering: a degree down is barely more than half.
-    double before = 0.5;
-    for (double deg = 1.0; deg <= 90.0; deg += 1.0) {
-        const double share = lowering_swing_share(m, swing(dvec3(0, 1, 0), deg));
-        EXPECT_GE(share, before);
-        EXPECT_LT(share - before, 0.05) << deg;
-        before = share;
+    EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 1, 0), 70.0)), 1.0);   // lowered
+    EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 1, 0), -70.0)), 0.6);  // raised
+    EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 0, 1), 70.0)), 0.5);   // swung forward
+    EXPECT_DOUBLE_EQ(shoulder_swing_share(m, dquat(1, 0, 0, 0)), 0.5);             // at rest
+    // Continuous and monotonic either way: a degree down or up is barely more than half.
+    for (const double sign : {1.0, -1.0}) {
+        double before = 0.5;
+        for (double deg = 1.0; deg <= 90.0; deg += 1.0) {
+            const double share = shoulder_swing_share(m, swing(dvec3(0, 1, 0), sign * deg));
+            EXPECT_GE(share, before);
+            EXPECT_LT(share - before, 0.05) << sign * deg;
+            before = share;
+        }
     }
     // Any other joint key keeps its share whatever the swing.
     m.lowering = dvec3(0.0);
-    EXPECT_DOUBLE_EQ(lowering_swing_share(m, swing(dvec3(0, 1, 0), 70.0)), 0.5);
+    EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 1, 0), 70.0)), 0.5);
+    EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 1, 0), -70.0)), 0.5);
 }
 
 }  // namespace
