@@ -143,6 +143,21 @@ def method_modifier(arm, body, key):
     mod.use_deform_preserve_volume = key == "preserve_volume"
 
 
+def picture_parser(prog):
+    """The arguments every picture script takes: --out PNG, --zip (the extension to install) and
+    --character (the shipped MakeHuman male by default); the script adds its own."""
+    p = argparse.ArgumentParser(prog=prog)
+    p.add_argument("--out", required=True)
+    p.add_argument("--zip", default=install.default_zip())
+    p.add_argument("--character", default=os.path.join(REPO, "blend_fixtures", "mh_male_game_engine_subdiv1.blend"))
+    return p
+
+
+def script_argv():
+    """Blender's command line after `--` (the script's own arguments)."""
+    return sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+
+
 #: Blender's two deformers and ours, for pictures side by side.
 DEFORMERS = (("armature", "Armature"), ("preserve_volume", "Preserve Volume"), ("sweep_deform", "Sweep Deform"))
 

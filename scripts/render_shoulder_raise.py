@@ -10,7 +10,6 @@ The upper arm (and everything below it) is turned about the body's front through
 it points --degrees from the body's down (+Z up, -Y front, as the MakeHuman males are).
 """
 
-import argparse
 import os
 import sys
 
@@ -27,16 +26,11 @@ import install  # noqa: E402
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    p = argparse.ArgumentParser(prog="render_shoulder_raise.py")
-    p.add_argument("--out", required=True)
-    p.add_argument("--zip", default=install.default_zip())
-    p.add_argument("--character",
-                   default=os.path.join(demo_scene.REPO, "blend_fixtures", "mh_male_game_engine_subdiv1.blend"))
+    p = demo_scene.picture_parser("render_shoulder_raise.py")
     p.add_argument("--degrees", type=float, default=160.0)
     p.add_argument("--arm", default="upperarm_l")
     p.add_argument("--size", type=float, default=0.3, help="ortho scale of each view (m)")
-    return p.parse_args(argv)
+    return p.parse_args(demo_scene.script_argv())
 
 
 def raise_arm(arm, name, degrees):

@@ -11,7 +11,6 @@ through its head, on top of the bones before it: 20 degrees on each of the three
 is a 60 degree bend (tests/native/fit/trunk_bend_test.cpp poses the same).
 """
 
-import argparse
 import os
 import sys
 
@@ -28,16 +27,11 @@ import install  # noqa: E402
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    p = argparse.ArgumentParser(prog="render_trunk_bend.py")
-    p.add_argument("--out", required=True)
-    p.add_argument("--zip", default=install.default_zip())
-    p.add_argument("--character",
-                   default=os.path.join(demo_scene.REPO, "blend_fixtures", "mh_male_game_engine_subdiv1.blend"))
+    p = demo_scene.picture_parser("render_trunk_bend.py")
     p.add_argument("--degrees", type=float, default=20.0)
     p.add_argument("--bones", default="spine_01,spine_02,spine_03")
     p.add_argument("--no-volume", action="store_true", help="Sweep Deform without its volume preservation")
-    return p.parse_args(argv)
+    return p.parse_args(demo_scene.script_argv())
 
 
 def bend(arm, bones, degrees):
