@@ -35,15 +35,16 @@ void set_shoulder_motions(Rig& rig) {
     // shoulder is the inside of the bend: with the whole swing it passed through itself
     // (shoulder_abd_160: 3-38 pairs on five bodies), and with half of it the arm's sections
     // made the other half of their turn between the shoulder key and the next, 8.6 cm apart
-    // on MakeHuman, and the skin on top bunched into a lip where the arm meets the shoulder
+    // on MakeHuman: the inside of that span was squeezed along the sweep to 0.40 of its rest
+    // thickness and the skin on top bunched into a lip where the arm meets the shoulder
     // (sharpest new crease there 68.8 degrees,
     // Shoulder.TheTopOfAShoulderRaised160DegreesCreasesLessThanWithHalfTheSwing). Raised, the
     // turn is spread over the web and two spans instead: the shoulder key takes 0.6 of the
     // swing, the next key 0.88 (its centre stays on the bone; only its plane lags), the rest
-    // are rigid with the arm: 54.2 degrees, the lip flattened into a small corner. A larger
-    // share at the shoulder key alone moved the crease into the web (0.7: 4 pairs on the 4.7K
-    // character); a larger lag narrowed the arm's section (0.85: the 75K character's to 0.89
-    // of rest; 0.7: MakeHuman's to 0.77).
+    // are rigid with the arm: thickness 0.70, 54.2 degrees, the lip flattened into a small
+    // corner. A larger share at the shoulder key alone moved the crease into the web (0.7: 4
+    // pairs on the 4.7K character); a larger lag narrowed the arm's section (0.85: the 75K
+    // character's to 0.89 of rest; 0.7: MakeHuman's to 0.77).
     constexpr double kLoweringShare = 1.0, kRaisingShare = 0.6, kNextKeyRaisingShare = 0.88;
     const std::vector<char> sideways = sweeps_leaving_trunk_sideways(rig);
     const dvec3 down = -trunk_axis(rig);
