@@ -56,16 +56,12 @@ DEFAULT_CHARACTER = os.path.join(REPO, "blend_fixtures", "mh_male_game_engine_su
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    p = argparse.ArgumentParser(prog="demo_scene.py")
-    p.add_argument("--out", required=True)
-    p.add_argument("--character", default=DEFAULT_CHARACTER)
+    p = picture_parser("demo_scene.py")
     p.add_argument("--action", default="")
-    p.add_argument("--zip", default=install.default_zip())
     p.add_argument("--motion-step", type=int, default=6, help="render every Nth frame of the clip")
     p.add_argument("--timing-frames", type=int, default=40, help="0: no timing")
     p.add_argument("--poses", default="", help="only these key poses (comma-separated; rest is always measured)")
-    return p.parse_args(argv)
+    return p.parse_args(script_argv())
 
 
 # ---- scene ------------------------------------------------------------------------------
@@ -148,8 +144,8 @@ def picture_parser(prog):
     --character (the shipped MakeHuman male by default); the script adds its own."""
     p = argparse.ArgumentParser(prog=prog)
     p.add_argument("--out", required=True)
+    p.add_argument("--character", default=DEFAULT_CHARACTER)
     p.add_argument("--zip", default=install.default_zip())
-    p.add_argument("--character", default=os.path.join(REPO, "blend_fixtures", "mh_male_game_engine_subdiv1.blend"))
     return p
 
 
@@ -162,14 +158,27 @@ def script_argv():
 DEFORMERS = (("armature", "Armature"), ("preserve_volume", "Preserve Volume"), ("sweep_deform", "Sweep Deform"))
 
 
-def deformer_copies(arm, body, script):
-    """The character at rest in one copy per DEFORMERS entry (the first is the character
-    itself): [(armature, body, label)], the last bound by Sweep Deform's automatic fitting;
-    exits naming `script` if the binding fails."""
+def put_at_rest(arm):
+    """No action, every pose bone at its rest."""
     if arm.animation_data:
         arm.animation_data.action = None
     for pb in arm.pose.bones:
         pb.matrix_basis = Matrix.Identity(4)
+
+
+def bind(arm, body, script):
+    """Binds `body` to `arm` with Sweep Deform's automatic fitting (as an artist adds it); exits
+    naming `script` if that fails."""
+    with bpy.context.temp_override(object=body, active_object=body, selected_objects=[body]):
+        if bpy.ops.object.sweep_deform_add(armature=arm.name) != {'FINISHED'}:
+            sys.exit(f"{script}: binding failed: {body.sweep_deform.message}")
+
+
+def deformer_copies(arm, body, script):
+    """The character at rest in one copy per DEFORMERS entry (the first is the character
+    itself): [(armature, body, label)], the last bound by Sweep Deform's automatic fitting;
+    exits naming `script` if the binding fails."""
+    put_at_rest(arm)
     columns = []
     for i, (key, label) in enumerate(DEFORMERS):
         a, b = (arm, body) if i == 0 else copied_character(arm, body)
@@ -177,9 +186,7 @@ def deformer_copies(arm, body, script):
         columns.append((a, b, label))
     bpy.context.view_layer.update()
     a, b, _ = columns[-1]
-    with bpy.context.temp_override(object=b, active_object=b, selected_objects=[b]):
-        if bpy.ops.object.sweep_deform_add(armature=a.name) != {'FINISHED'}:
-            sys.exit(f"{script}: binding failed: {b.sweep_deform.message}")
+    bind(a, b, script)
     return columns
 
 

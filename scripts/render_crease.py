@@ -10,7 +10,6 @@ the elbow with scripts/blender_support/flexion.py and renders (Workbench) two vi
 character's left (+X, as the demo's close-ups) and from the front, slightly from below.
 """
 
-import argparse
 import os
 import sys
 
@@ -26,14 +25,11 @@ import install  # noqa: E402
 
 
 def parse_args():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
-    p = argparse.ArgumentParser(prog="render_crease.py")
-    p.add_argument("--out", required=True)
-    p.add_argument("--zip", default=install.default_zip())
-    p.add_argument("--character", default=os.path.join(demo_scene.REPO, "blend_fixtures", "character.blend"))
+    p = demo_scene.picture_parser("render_crease.py")
+    p.set_defaults(character=os.path.join(demo_scene.REPO, "blend_fixtures", "character.blend"))
     p.add_argument("--degrees", type=float, default=150.0)
     p.add_argument("--size", type=float, default=0.26, help="ortho scale of each view (m)")
-    return p.parse_args(argv)
+    return p.parse_args(demo_scene.script_argv())
 
 
 def main():
@@ -41,9 +37,7 @@ def main():
     arm, body = demo_scene.load_character(os.path.abspath(args.character), "")
     install.install(args.zip)
     arm.animation_data.action = None
-    with bpy.context.temp_override(object=body, active_object=body, selected_objects=[body]):
-        if bpy.ops.object.sweep_deform_add(armature=arm.name) != {'FINISHED'}:
-            sys.exit(f"render_crease: binding failed: {body.sweep_deform.message}")
+    demo_scene.bind(arm, body, "render_crease")
     s = body.sweep_deform
     s.use_anatomy = True
     joint = next(j for j in s.joints if j.kind == 'ELBOW' and j.name.endswith("L"))

@@ -15,7 +15,7 @@ import sys
 
 import bpy
 import numpy as np
-from mathutils import Matrix, Vector
+from mathutils import Vector
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import demo_scene  # noqa: E402  (character loading, installation, camera, render)
@@ -42,22 +42,16 @@ def ellipse_object(key, to_world, radius):
 
 
 def main():
-    argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
     p = argparse.ArgumentParser(prog="render_fit.py")
     p.add_argument("--character", required=True)
     p.add_argument("--out", required=True)
     p.add_argument("--zip", default=demo_scene.install.default_zip())
-    args = p.parse_args(argv)
+    args = p.parse_args(demo_scene.script_argv())
     arm, body = demo_scene.load_character(os.path.abspath(args.character), "")
     demo_scene.install.install(args.zip)
     scene = bpy.context.scene
-    if arm.animation_data:
-        arm.animation_data.action = None
-    for pb in arm.pose.bones:
-        pb.matrix_basis = Matrix.Identity(4)
-    with bpy.context.temp_override(object=body, active_object=body, selected_objects=[body]):
-        if bpy.ops.object.sweep_deform_add(armature=arm.name) != {'FINISHED'}:
-            sys.exit(f"render_fit: binding failed: {body.sweep_deform.message}")
+    demo_scene.put_at_rest(arm)
+    demo_scene.bind(arm, body, "render_fit")
     report = json.loads(body.get("_sweep_deform_fit_report", "{}"))
     lo, hi = demo_scene.world_bbox([body])
     height = float(hi[2] - lo[2])
