@@ -3,7 +3,8 @@
 do to deform a mesh from a carrier: after a carrier write (the pose fixed, the handler out of
 the way), `view_layer.update()` is timed with the character's modifier running
 
-* the product's node group;
+* the product's node group sampling the offsets carrier (with a modifier before Sweep Deform);
+* the product's node group handing on the mesh carrier (the viewport's path otherwise);
 * the least that deforms: Object Info → Sample Index of the carrier's position by Index → Set
   Position's offset (checked to give the product's positions);
 * Set Position with one offset for every vertex (no per-vertex sample; wrong, for scale), and
@@ -81,6 +82,10 @@ def main():
         assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
         measure_frame.configure(body, 'sweep')
         measure_frame.time_posing(body, arm, measure_frame.poses(3, bones))
+        # The offsets carrier's path first (the variants sample it), the mesh carrier emptied.
+        from bl_ext.user_default.sweep_deform.blender import frame
+        _, _, positions = measure_frame.carrier_of(body)  # the mesh carrier's, serving now
+        frame.fall_back_to_offsets(body)
         md, carrier, base = measure_frame.carrier_of(body)
         offsets = base.copy()
         vl = bpy.context.view_layer
@@ -88,6 +93,7 @@ def main():
         kinds = ('least', 'one offset', 'unlinked index', 'through')
         groups = [("the product's", product)] + [(k, variant(k, modifier)) for k in kinds]
         times, shown = {label: [] for label, _ in groups}, {}
+        times["mesh carrier"] = []
         try:
             with measure_frame.handler_out():
                 for _ in range(3):  # rounds, the groups taking turns
@@ -99,6 +105,17 @@ def main():
                         modifier.write_offsets(carrier, base)  # the same offsets for every group
                         vl.update()
                         shown[label] = helpers.evaluated_positions(body)[0].copy()
+            # The product's group handing on the mesh carrier (what serves in the viewport).
+            mesh_carrier, _ = modifier.mesh_carrier(body, md)
+            groups.append(("mesh carrier", product))
+            with measure_frame.handler_out():
+                modifier.write_offsets(mesh_carrier, positions)
+                vl.update()
+                times["mesh carrier"] = measure_frame.time_carrier_writes(mesh_carrier, positions.copy(),
+                                                                          opts["frames"] // 3 * 3)
+                modifier.write_offsets(mesh_carrier, positions)
+                vl.update()
+                shown["mesh carrier"] = helpers.evaluated_positions(body)[0].copy()
         finally:
             md.node_group = product
             modifier.set_carrier(md, carrier)

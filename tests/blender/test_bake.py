@@ -347,8 +347,9 @@ def test_relative_path_in_an_unsaved_file_is_refused():
 
 def user_objects():
     """The objects of the file but the add-on's hidden carriers (unbinding deletes them)."""
-    prefix = helpers.sub("blender.modifier").CARRIER_PREFIX
-    return {k for k in bpy.data.objects.keys() if not k.startswith(tuple(prefix.values()))}
+    modifier = helpers.sub("blender.modifier")
+    prefixes = tuple(modifier.CARRIER_PREFIX.values()) + (modifier.MESH_CARRIER_PREFIX,)
+    return {k for k in bpy.data.objects.keys() if not k.startswith(prefixes)}
 
 
 def test_errors_change_nothing():

@@ -97,6 +97,18 @@ def carrier_positions(obj, render):
     return co.reshape(-1, 3)
 
 
+def viewport_offsets(obj):
+    """The offsets the viewport shows: its mesh carrier's positions less the mesh's when that
+    serves (the mesh has no shape keys here), else its offsets carrier's."""
+    modifier = helpers.sub("blender.modifier")
+    c = modifier.mesh_carrier_in_use(obj, modifier.find(obj))
+    if c is None:
+        return carrier_positions(obj, False)
+    co = np.empty(len(c.data.vertices) * 3, np.float32)
+    c.data.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3) - helpers.base_positions(obj)
+
+
 def posed_for_a_render():
     """The light fixture bound and posed in a scene set up for tiny Workbench renders."""
     import test_render
@@ -115,17 +127,18 @@ def test_render_and_viewport_keep_their_own_carriers():
     playing other frames do not overwrite each other's offsets."""
     char, obj = posed_for_a_render()
     check_equals_core(obj, "viewport")
-    rendered = carrier_positions(obj, False)  # the viewport's offsets for this pose
+    rendered = viewport_offsets(obj)  # the viewport's offsets for this pose
     assert rendered.any() and not carrier_positions(obj, True).any()  # no render yet: zero offsets
     calls = core_calls()
     assert bpy.ops.render.render() == {'FINISHED'}
     assert core_calls() > calls
-    np.testing.assert_array_equal(carrier_positions(obj, True), rendered)
+    # (float32 positions less the mesh's: equal to the offsets to their last bit or so)
+    np.testing.assert_allclose(carrier_positions(obj, True), rendered, rtol=0, atol=1e-6)
     helpers.pose_limbs(char, elbow=0.2, knee=1.3)
     bpy.context.view_layer.update()
     check_equals_core(obj, "viewport, other pose")  # from the viewport carrier
-    assert not np.array_equal(carrier_positions(obj, False), rendered)
-    np.testing.assert_array_equal(carrier_positions(obj, True), rendered)
+    assert not np.allclose(viewport_offsets(obj), rendered, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(carrier_positions(obj, True), rendered, rtol=0, atol=1e-6)
 
 
 def test_linked_duplicates_each_on_their_own_armature():
@@ -296,7 +309,7 @@ def test_hide_render_costs_nothing_in_a_render():
     obj.hide_render = False
     assert bpy.ops.render.render() == {'FINISHED'}
     assert core_calls() == calls + 1
-    np.testing.assert_array_equal(carrier_positions(obj, True), carrier_positions(obj, False))
+    np.testing.assert_allclose(carrier_positions(obj, True), viewport_offsets(obj), rtol=0, atol=1e-6)
 
 
 def test_vertex_count_changed_before_the_modifier():
@@ -638,3 +651,186 @@ def test_shape_keys_turned_in_the_core_match_the_node_group():
     err = np.linalg.norm(in_core - by_nodes, axis=1)
     print(f"a key on all {len(base)} vertices: core against node group max {err.max():.2e}")
     assert err.max() <= 1e-5 * diag
+
+
+def _evaluated_data(obj):
+    """The evaluated mesh's UV map "UVMap", its face attribute "tag", its material indices, its
+    materials and its positions."""
+    ev = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    me = ev.to_mesh()
+    try:
+        uv = np.empty(2 * len(me.loops), np.float32)
+        me.uv_layers["UVMap"].data.foreach_get("uv", uv)
+        tag = np.empty(len(me.polygons), np.float32)
+        me.attributes["tag"].data.foreach_get("value", tag)
+        mi = np.empty(len(me.polygons), np.int32)
+        me.polygons.foreach_get("material_index", mi)
+        co = np.empty(3 * len(me.vertices), np.float32)
+        me.vertices.foreach_get("co", co)
+        return uv, tag, mi, [m.name if m else None for m in me.materials], co.reshape(-1, 3)
+    finally:
+        ev.to_mesh_clear()
+
+
+def test_the_viewport_hands_on_a_copy_of_the_mesh_kept_up_to_date():
+    """In the viewport, with nothing before Sweep Deform, Blender hands on the mesh carrier (a
+    copy of the mesh holding the deformed positions) instead of sampling offsets: the result is
+    the same to the bit, carries the mesh's UVs, attributes, materials and vertex groups (a
+    modifier after Sweep Deform uses one), and follows edits of them; the copy has no shape
+    keys and is made again only when the mesh changes, not on every frame."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    mesh, modifier = obj.data, helpers.sub("blender.modifier")
+    rng = np.random.default_rng(3)
+    uv = mesh.uv_layers.new(name="UVMap")
+    uv.data.foreach_set("uv", rng.random(2 * len(mesh.loops)).astype(np.float32))
+    tag = mesh.attributes.new("tag", 'FLOAT', 'FACE')
+    tag.data.foreach_set("value", rng.random(len(mesh.polygons)).astype(np.float32))
+    for name in ("Skin", "Cloth"):
+        mesh.materials.append(bpy.data.materials.new(name))
+    mesh.polygons.foreach_set("material_index", rng.integers(0, 2, len(mesh.polygons)).astype(np.int32))
+    mesh.update()
+    helpers.pose_limbs(char, elbow=1.2, knee=0.8)
+    bpy.context.view_layer.update()
+    co = check_equals_core(obj, "mesh carrier")
+    c = modifier.mesh_carrier_in_use(obj, modifier.find(obj))
+    assert c is not None and not c.users_collection and c.data.shape_keys is None
+    got_uv, got_tag, got_mi, got_materials, _ = _evaluated_data(obj)
+    want_uv = np.empty(2 * len(mesh.loops), np.float32)
+    uv.data.foreach_get("uv", want_uv)
+    want_tag = np.empty(len(mesh.polygons), np.float32)
+    tag.data.foreach_get("value", want_tag)
+    want_mi = np.empty(len(mesh.polygons), np.int32)
+    mesh.polygons.foreach_get("material_index", want_mi)
+    np.testing.assert_array_equal(got_uv, want_uv)
+    np.testing.assert_array_equal(got_tag, want_tag)
+    np.testing.assert_array_equal(got_mi, want_mi)
+    assert got_materials == ["Skin", "Cloth"]
+
+    # The same frame through the offsets carrier (a modifier before Sweep Deform that moves
+    # nothing sends it there): the same positions to the bit.
+    before = obj.modifiers.new("Nothing", 'DISPLACE')
+    before.strength = 0.0
+    obj.modifiers.move(list(obj.modifiers).index(before), 0)
+    bpy.context.view_layer.update()
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is None
+    np.testing.assert_array_equal(_evaluated_data(obj)[4], co)
+    obj.modifiers.remove(before)
+    bpy.context.view_layer.update()
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is not None
+    np.testing.assert_array_equal(_evaluated_data(obj)[4], co)
+
+    # A vertex group used by a modifier after Sweep Deform: a Displace over the upper half.
+    top = obj.vertex_groups.new(name="Top")
+    base = helpers.base_positions(obj)
+    upper = np.nonzero(base[:, 2] > np.median(base[:, 2]))[0]
+    top.add(upper.tolist(), 1.0, 'REPLACE')
+    after = obj.modifiers.new("Lift", 'DISPLACE')
+    after.direction, after.strength, after.vertex_group = 'Z', 0.01, top.name
+    bpy.context.view_layer.update()
+    lifted = _evaluated_data(obj)[4] - co
+    np.testing.assert_allclose(lifted[upper, 2], 0.005, atol=1e-6)
+    assert np.abs(np.delete(lifted, upper, axis=0)).max() == 0.0
+    obj.modifiers.remove(after)
+    bpy.context.view_layer.update()  # (the stack changed: the mesh is copied again, once)
+
+    # Edits of the mesh show at once (the copy is made again), a pose change does not copy.
+    mesh_data = c.data
+    helpers.pose_limbs(char, elbow=0.6, knee=1.1)
+    bpy.context.view_layer.update()
+    assert c.data == mesh_data, "a pose change copied the mesh again"
+    new_uv = rng.random(2 * len(mesh.loops)).astype(np.float32)
+    uv.data.foreach_set("uv", new_uv)
+    mesh.materials[0] = bpy.data.materials.new("Leather")
+    mesh.update()
+    bpy.context.view_layer.update()
+    got_uv, _, _, got_materials, _ = _evaluated_data(obj)
+    np.testing.assert_array_equal(got_uv, new_uv)
+    assert got_materials == ["Leather", "Cloth"]
+    check_equals_core(obj, "after the edit")
+
+
+def test_animated_shape_keys_do_not_copy_the_mesh_on_every_frame():
+    """A shape key value animated over the frames re-evaluates the mesh on every frame; the
+    mesh carrier is copied again only for edits of the mesh itself (handlers._meshes_changed
+    sees the key's update beside the mesh's)."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    obj.shape_key_add(name="Basis")
+    key = obj.shape_key_add(name="Swell")
+    base = helpers.base_positions(obj)
+    key.data.foreach_set("co", (base * 1.01).reshape(-1))
+    for frame, value in ((1, 0.0), (20, 1.0)):
+        key.value = value
+        key.keyframe_insert("value", frame=frame)
+    animate_elbows(char, [(1, 0.2), (20, 1.4)])
+    handlers, modifier = helpers.sub("blender.handlers"), helpers.sub("blender.modifier")
+    copies = []
+
+    def after_frame(scene, depsgraph):  # what depsgraph_update_post does during GUI playback
+        handlers._meshes_changed(depsgraph)
+        c = modifier.mesh_carrier_in_use(obj, modifier.find(obj))
+        copies.append(c.data.as_pointer() if c is not None else None)
+
+    bpy.context.scene.frame_set(1)
+    bpy.app.handlers.frame_change_post.append(after_frame)
+    shown = []
+    try:
+        for f in range(2, 12):
+            bpy.context.scene.frame_set(f)
+            shown.append(helpers.evaluated_positions(obj)[0])
+    finally:
+        bpy.app.handlers.frame_change_post.remove(after_frame)
+    assert copies[-1] is not None and len(set(copies[1:])) == 1, copies
+    assert not np.allclose(shown[0], shown[-1])  # (the keys' turning: test_shape_key_rides_along...)
+
+
+def test_a_saved_file_keeps_the_offsets_not_a_copy_of_the_mesh():
+    """Saving empties the mesh carrier (the file keeps the offsets carrier, brought up to
+    date): the file does not grow by a copy of the mesh, the viewport shows the same shape
+    before and after the save, and the reopened file shows it too before any evaluation."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.0, knee=0.7)
+    bpy.context.view_layer.update()
+    co = check_equals_core(obj, "before saving")
+    modifier = helpers.sub("blender.modifier")
+    c = modifier.mesh_carrier_in_use(obj, modifier.find(obj))
+    assert c is not None
+    carrier_mesh = c.data.name
+    path = helpers.tmp_dir() + "/mesh_carrier.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], co)
+    bpy.context.view_layer.update()
+    check_equals_core(obj, "after saving")
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is not None  # serving again
+    name = obj.name
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert len(bpy.data.meshes[carrier_mesh].vertices) == 0, "the file holds a copy of the mesh"
+    np.testing.assert_array_equal(helpers.evaluated_positions(bpy.data.objects[name])[0], co)
+
+
+def test_edit_mode_shows_the_offsets_carrier_brought_up_to_date():
+    """In Edit Mode the modifier adds the offsets to the edited mesh (the mesh carrier would
+    hide the edits): entering it empties the mesh carrier after giving the viewport's offsets
+    carrier the deformation shown; leaving it, the mesh carrier serves again."""
+    char = helpers.load("fixture")
+    helpers.use_test_rig([char])
+    obj = helpers.bind(char)
+    modifier = helpers.sub("blender.modifier")
+    helpers.pose_limbs(char, elbow=0.4, knee=1.2)  # (the offsets carrier last held the rest)
+    bpy.context.view_layer.update()
+    co = check_equals_core(obj, "object mode")
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is not None
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.context.view_layer.update()
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is None
+    np.testing.assert_allclose(carrier_positions(obj, False), co - helpers.base_positions(obj), rtol=0, atol=1e-6)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.view_layer.update()
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is not None
+    np.testing.assert_array_equal(check_equals_core(obj, "object mode again"), co)

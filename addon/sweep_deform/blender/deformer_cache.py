@@ -38,6 +38,12 @@ class Entry:
         self._mesh_rest = self._shape_key_buffers = self._moves_last = None
         self.moves_seen = 0  # changes of the shape keys' displacements (moving)
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
+        # The mesh carrier (modifier.py): the mesh it copies, whether that changed since, the
+        # deformed positions' buffer and the keys' displacements last added to them.
+        self.mesh_pointer = None
+        self.mesh_stale = True  # a new entry (after load, undo, a new binding) copies afresh
+        self._positions = None
+        self.whole_moves = None
         self.matrices_seen = None  # (object, armature) world matrices last found usable
         self.settings = None
         self.labels = []
@@ -172,6 +178,12 @@ class Entry:
             self._packed[4 * V:] = self.mesh_rest(obj)
         return self._packed
 
+    def positions_buffer(self):
+        """(V,3) float32: the deformed positions written into the mesh carrier."""
+        if self._positions is None:
+            self._positions = np.empty((self.deformer.vertex_count, 3), np.float32)
+        return self._positions
+
     def mesh_rest(self, obj):
         """(V,3) float32 the mesh's own vertex positions (mesh space), read once: what shape
         keys and earlier modifiers are measured from."""
@@ -279,6 +291,15 @@ def clear():
         e.close()
     _cache.clear()
     bound_objects.clear()
+
+
+def mesh_changed(mesh):
+    """The mesh was edited (attributes, UVs, materials, ...): the mesh carriers copying it are
+    copied again at their next write."""
+    pointer = mesh.as_pointer()
+    for e in _cache.values():
+        if e.mesh_pointer == pointer:
+            e.mesh_stale = True
 
 
 def settings_changed(obj):

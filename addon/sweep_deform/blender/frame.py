@@ -16,7 +16,8 @@ import math
 import numpy as np
 
 from ..core import arrays, checks, native, output_check
-from . import anatomy, bind_state, binding, corrections, deformer_cache, modifier, persistence, shape_keys
+from . import anatomy, bind_state, binding, corrections, deformer_cache, mesh_data, modifier, persistence, \
+    shape_keys
 
 #: What the user is told after a refused frame, and what happens.
 KEPT = "the mesh keeps its last good deformation until this is fixed"
@@ -137,7 +138,10 @@ def evaluate(obj, depsgraph, render=False):
     """Updates the offsets of one bound mesh object for the pose in `depsgraph`.
     Returns True if it wrote new offsets."""
     s = obj.sweep_deform
-    if s.state != 'BOUND' or obj.mode == 'EDIT':
+    if s.state != 'BOUND':
+        return False
+    if obj.mode == 'EDIT':  # the modifier shows the edits through the offsets carrier
+        fall_back_to_offsets(obj, depsgraph=depsgraph)
         return False
     md = modifier.find(obj)
     if md is None:
@@ -226,15 +230,27 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # a file bound by an older version; not during a render, which cannot add data). A render
     # writes the render carrier (every render path runs frame_change_post with its depsgraph,
     # F12 included), the viewport its own: neither overwrites what the other reads.
+    # In the viewport, with nothing before Sweep Deform that the offsets must ride on, the mesh
+    # carrier serves (modifier.py): Blender hands it on instead of sampling offsets.
+    whole = (not render and not before and not with_frames and obj.mode == 'OBJECT'
+             and not (e.anatomy is not None and modifier.has_shape_keys(obj)))
     n = e.deformer.vertex_count
     count = n * (modifier.FRAME_BLOCKS if with_frames else 1)
     if render:
         targets = [modifier.carrier(obj, md, count, create=False, render=True)]
     else:
-        targets = [modifier.carrier(obj, md, count)]
+        if whole:
+            e.mesh_pointer = obj.data.as_pointer()  # its changes make the copy stale (handlers.py)
+            targets = [modifier.mesh_carrier(obj, md, stale=e.mesh_stale)]
+            e.mesh_stale = False
+        else:
+            fall_back_to_offsets(obj, md, depsgraph)
+            targets = [modifier.carrier(obj, md, count)]
         made_for = (md.as_pointer(), count)
         if e.render_carrier_for != made_for:  # the render's is made too, for renders to come (once)
             modifier.carrier(obj, md, count, create=True, render=True)
+            if whole:  # and the viewport's own offsets carrier, for when the mesh carrier cannot serve
+                modifier.carrier(obj, md, count)
             e.render_carrier_for = made_for
     if any(c is None for c, _ in targets):
         e.refuse(obj, "Sweep Deform has no place for this object's deformation yet: it is made at the next "
@@ -242,6 +258,9 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         return False
     if key == e.refused_key or all(not fresh and e.written.get(c.name) == key for c, fresh in targets):
         return False  # already written (a new carrier is written again), or refused
+    if whole and e.written.get(targets[0][0].name) == key:  # the mesh copied again: the same positions
+        modifier.write_offsets(targets[0][0], e.positions_buffer())
+        return False
     if settings != e.settings:
         e.deformer.set_volume_preservation(*settings)
         e.settings = settings
@@ -271,8 +290,13 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         return False
     deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
-    if moves is not None:  # the keys' displacements, turned: offset + (J - I) d in mesh space
-        change = (turned if to_mesh is None else turned @ to_mesh) - d
+    if whole:  # the deformed positions: the mesh + offsets, and the keys' displacements turned
+        offsets = np.add(e.mesh_rest(obj), offsets, out=e.positions_buffer())
+        e.whole_moves = moves
+    if moves is not None:  # the keys' turned displacements: + J d (positions), + (J - I) d (offsets)
+        change = turned if to_mesh is None else turned @ to_mesh
+        if not whole:
+            change -= d
         if len(moved) == len(offsets):
             offsets += change  # every vertex: no scatter
         else:
@@ -286,6 +310,8 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     if not (checked and to_mesh is None) and not np.isfinite(offsets).all():
         e.refuse(obj, f"The deformation of '{obj.name}' is not finite here: {KEPT}")
         e.refused_key = key
+        if whole:  # its positions' buffer no longer holds what the mesh carrier shows
+            e.written.pop(targets[0][0].name, None)
         return False
     for c, _ in targets:
         modifier.write_offsets(c, offsets)
@@ -295,4 +321,40 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     e.refused_key = None
     e.error = ""
     e.frames += 1
+    return True
+
+
+def fall_back_to_offsets(obj, md=None, depsgraph=None):
+    """When the object's mesh carrier holds a mesh: the viewport's offsets carrier is given the
+    deformation it shows (its positions less what reaches the modifier: the mesh, and the
+    shape keys' displacements), then the mesh carrier is emptied, so the offsets carrier serves
+    with no change to be seen. Before a save (files keep the offsets, not a copy of the mesh),
+    in Edit Mode and a paint mode, and with a modifier before Sweep Deform. Returns True if the
+    mesh carrier was in use."""
+    md = md or modifier.find(obj)
+    c = modifier.mesh_carrier_in_use(obj, md)
+    if c is None:
+        return False
+    e = deformer_cache.peek(obj)
+    n = len(c.data.vertices)
+    offsets = np.empty(3 * n, np.float32)
+    c.data.attributes['position'].data.foreach_get('vector', offsets)
+    offsets = offsets.reshape(-1, 3)
+    rest = e.mesh_rest(obj) if e is not None else mesh_data.vertex_positions(obj.data)
+    if len(rest) == n:
+        offsets -= rest
+        moves = e.whole_moves if e is not None else None
+        if moves is None and modifier.has_shape_keys(obj) and depsgraph is not None:
+            mixed = shape_keys.displacements(obj, depsgraph, rest, shape_keys.ShapeKeyBuffers(n))
+            moves = mixed if mixed is not None and mixed[0].size else None
+        if moves is not None:
+            offsets[moves[0]] -= moves[1]
+        target, _ = modifier.carrier(obj, md, n)
+        if target is not None:
+            modifier.write_offsets(target, offsets)
+            if e is not None:
+                e.written[target.name] = e.written.get(c.name)
+    if e is not None:
+        e.written.pop(c.name, None)
+    modifier.empty_mesh_carrier(obj, md)
     return True

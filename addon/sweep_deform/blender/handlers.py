@@ -85,6 +85,8 @@ def evaluate_scene(scene, depsgraph, render=False):
             mode = obj.mode
             if _modes.get(obj.name) == 'EDIT' and mode != 'EDIT':
                 bind_state.check_topology(obj)
+            if _modes.get(obj.name, 'OBJECT') != mode:  # a paint mode may have changed the mesh
+                deformer_cache.mesh_changed(obj.data)
             _modes[obj.name] = mode
             written += frame.evaluate(obj, depsgraph, render)
         except ReferenceError:
@@ -98,10 +100,28 @@ def evaluate_scene(scene, depsgraph, render=False):
     return written
 
 
+def _meshes_changed(depsgraph):
+    """Meshes edited in this update (their mesh carriers copy them again): a mesh whose geometry
+    was updated, unless its shape keys were too (an animated or dragged key value re-evaluates
+    the mesh on every frame, and the keys are not in the copy)."""
+    meshes, keys = [], set()
+    for update in depsgraph.updates:
+        if not update.is_updated_geometry:
+            continue
+        if isinstance(update.id, bpy.types.Mesh):
+            meshes.append(update.id.original)
+        elif isinstance(update.id, bpy.types.Key):
+            keys.add(update.id.original.as_pointer())
+    for mesh in meshes:
+        if mesh.shape_keys is None or mesh.shape_keys.as_pointer() not in keys:
+            deformer_cache.mesh_changed(mesh)
+
+
 @persistent
 def on_depsgraph_update_post(scene, depsgraph=None):
     if depsgraph is None:
         return
+    _meshes_changed(depsgraph)
     if evaluate_scene(scene, depsgraph, render=depsgraph.mode == 'RENDER') and not bpy.app.background:
         redraw.redraw_properties()
 
@@ -130,7 +150,9 @@ def _each_bound_mesh(action, failure):
 
 @persistent
 def on_save_pre(*_args):
-    """The file on disk deforms by the Armature modifier where the extension is missing."""
+    """The file on disk deforms by the Armature modifier where the extension is missing, and
+    keeps the offsets, not the mesh carriers' copies of the meshes."""
+    _each_bound_mesh(frame.fall_back_to_offsets, "its mesh carrier was not emptied")
     _each_bound_mesh(binding.prepare_for_save, "not prepared for Blender without the extension")
 
 

@@ -1,24 +1,35 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The "Sweep Deform" modifier: a Geometry Nodes modifier running one small node group, and
-the hidden *carrier* that brings it each frame's offsets.
+the hidden *carriers* that bring it each frame's deformation.
 
 Blender's Python API cannot register a modifier type, so the modifier is built from what
-Blender offers. The node group (layout version 3) does::
+Blender offers. The node group (layout version 4) does::
 
-    Carrier ─► Object Info (Original) ─► Sample Index (Position, by Index) ──┐
-    Group Input ─► Set Position (Selection = counts match, Offset = ─────────┘)
-                ─► Remove Named Attribute "sweep_deform_offset" ─► Group Output
+    Mesh Carrier ─► Object Info (Original) ─────────────────────────────────────────┐
+    Carrier ─► Object Info (Original) ─► Sample Index (Position, by Index) ──┐       │
+    Group Input ─► Set Position (Selection = counts match, Offset = ─────────┘)     │
+                ─► Remove Named Attribute "sweep_deform_offset" ─► Switch (viewport and
+                   the mesh carrier's count = the incoming count: the mesh carrier) ─► Output
 
-* The per-frame data lives outside the artist's mesh: every object with a Sweep Deform
-  modifier has its own **carrier**, a mesh object that is in no collection (so never drawn,
-  rendered or listed in the view layer) whose vertex *i* holds vertex *i*'s offset
-  (deformed − rest, mesh space). The modifier's "Carrier" input points at it; the add-on
-  writes the carrier's positions, never the character's mesh. Hence linked duplicates
-  (Alt+D, a shared mesh) each have their own offsets, a character whose mesh is linked from
-  a library deforms through a library override (the override's modifier points at a local
-  carrier), and playback leaves the character's mesh datablock untouched.
-* The offsets are added to what reaches the modifier; the rest pose gives zero offsets, so
-  the rest mesh is reproduced exactly; no carrier (unbound) is a no-op.
+* The per-frame data lives outside the artist's mesh, in objects that are in no collection
+  (so never drawn, rendered or listed in the view layer), owned by the object: the add-on
+  writes them, never the character's mesh. Hence linked duplicates (Alt+D, a shared mesh)
+  each have their own, a character whose mesh is linked from a library deforms through a
+  library override (the override's modifier points at local carriers), and playback leaves
+  the character's mesh datablock untouched.
+* The **mesh carrier** (viewport only) is a copy of the character's mesh (its faces,
+  attributes, UVs, vertex groups, materials; no shape keys) whose positions are the frame's
+  deformed positions: the group hands it on as it is. It serves whenever nothing before Sweep
+  Deform moves the vertices (shape keys are turned by the core): sampling a carrier per
+  vertex costs Blender 0.5-0.6 ms a frame at 75K vertices, handing a mesh on 0.1-0.2 ms (see
+  docs/addon.md). It is copied again when the character's mesh changes (frame.py), emptied
+  when it cannot serve (a modifier before that moves vertices, Edit Mode or a paint mode on
+  the character, a file being saved: files keep only the offsets), and then the offsets
+  carrier serves, brought up to date first (fall_back_to_offsets).
+* The **offsets carrier** (one for the viewport, one for renders): vertex *i* holds vertex
+  *i*'s offset (deformed − rest, mesh space), added to what reaches the modifier; the rest
+  pose gives zero offsets, so the rest mesh is reproduced exactly; no carrier (unbound) is a
+  no-op. With modifiers before Sweep Deform it also holds each vertex's local linear map.
 * A vertex count reaching the modifier that differs from the carrier's (a Mirror, Array, ...
   before it) passes the geometry through unchanged, with a warning on the modifier (Warning
   node, Blender 4.3+) and a message in the Sweep Deform panel (see count_problem()).
@@ -27,7 +38,7 @@ Blender offers. The node group (layout version 3) does::
 * Being a real modifier, it can be reordered, toggled for viewport and render, applied, and
   followed by other modifiers (Subdivision Surface).
 * The group does not reference the armature, so a pose change evaluates the armature only;
-  the handler then writes the carrier and Blender evaluates the mesh once (see handlers.py).
+  the handler then writes a carrier and Blender evaluates the mesh once (see handlers.py).
 """
 
 import bpy
@@ -38,11 +49,16 @@ GROUP_NAME = "Sweep Deform"
 MODIFIER_NAME = "Sweep Deform"
 #: Tag on the node group (an ID property) and its layout version.
 GROUP_TAG = "sweep_deform_group"
-GROUP_VERSION = 3
-#: The node group's object inputs: the carrier of the viewport and that of renders.
+GROUP_VERSION = 4
+#: The node group's object inputs: the offsets carrier of the viewport and that of renders,
+#: and the viewport's mesh carrier.
 CARRIER_INPUT = "Carrier"
 RENDER_CARRIER_INPUT = "Render Carrier"
+MESH_CARRIER_INPUT = "Mesh Carrier"
 INPUTS = {False: CARRIER_INPUT, True: RENDER_CARRIER_INPUT}
+#: On a mesh carrier object: marks it as one (offsets carriers do not have it).
+CARRIER_MESH = "sweep_deform_mesh"
+MESH_CARRIER_PREFIX = ".Sweep Deform mesh carrier "
 #: On a carrier object: whether it is the render carrier.
 CARRIER_RENDER = "sweep_deform_render"
 #: On a carrier object: the name of the object it belongs to. A copy of the object (Alt+D,
@@ -78,6 +94,7 @@ def _build(ng):
     ng.interface.new_socket(name="Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
     ng.interface.new_socket(name=CARRIER_INPUT, in_out='INPUT', socket_type='NodeSocketObject')
     ng.interface.new_socket(name=RENDER_CARRIER_INPUT, in_out='INPUT', socket_type='NodeSocketObject')
+    ng.interface.new_socket(name=MESH_CARRIER_INPUT, in_out='INPUT', socket_type='NodeSocketObject')
     ng.interface.new_socket(name="Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
     if hasattr(ng, "is_modifier"):
         ng.is_modifier = True
@@ -208,7 +225,32 @@ def _build(ng):
     incoming.location, moved.location = (-400, -1600), (-150, -1600)
     combine.location, total.location = (50, -1100), (50, -200)
     links.new(setpos.outputs['Geometry'], remove.inputs['Geometry'])
-    links.new(remove.outputs['Geometry'], gout.inputs['Geometry'])
+    # The viewport's mesh carrier, handed on as it is when it has the incoming point count (an
+    # emptied one has none). The condition is a single value: only the branch picked runs.
+    whole_info = nodes.new('GeometryNodeObjectInfo')
+    whole_info.transform_space = 'ORIGINAL'
+    links.new(gin.outputs[MESH_CARRIER_INPUT], whole_info.inputs['Object'])
+    size_whole = nodes.new('GeometryNodeAttributeDomainSize')
+    size_whole.component = 'MESH'
+    links.new(whole_info.outputs['Geometry'], size_whole.inputs['Geometry'])
+    whole_count = nodes.new('FunctionNodeCompare')
+    whole_count.data_type = 'INT'
+    whole_count.operation = 'EQUAL'
+    a, b = _int_inputs(whole_count)
+    links.new(size_in.outputs['Point Count'], a)
+    links.new(size_whole.outputs['Point Count'], b)
+    whole_here = nodes.new('FunctionNodeBooleanMath')
+    whole_here.operation = 'AND'
+    links.new(is_viewport.outputs[0], whole_here.inputs[0])
+    links.new(whole_count.outputs['Result'], whole_here.inputs[1])
+    whole = nodes.new('GeometryNodeSwitch')
+    whole.input_type = 'GEOMETRY'
+    links.new(whole_here.outputs[0], whole.inputs['Switch'])
+    links.new(remove.outputs['Geometry'], whole.inputs['False'])
+    links.new(whole_info.outputs['Geometry'], whole.inputs['True'])
+    links.new(whole.outputs[0], gout.inputs['Geometry'])
+    whole_info.location, size_whole.location = (-1150, 350), (-900, 350)
+    whole_count.location, whole_here.location, whole.location = (-650, 350), (-400, 350), (600, 100)
     gin.location, info.location, render_info.location = (-1400, 0), (-1150, -100), (-1150, -300)
     is_viewport.location, pick.location = (-1150, 100), (-900, -150)
     position.location, index.location = (-650, -350), (-650, -450)
@@ -216,7 +258,7 @@ def _build(ng):
     same.location, has_carrier.location = (-400, -600), (-400, -780)
     plain.location, packed_size.location, packed.location = (-550, -560), (-800, -820), (-550, -700)
     differ.location, use.location = (-250, -650), (0, -450)
-    setpos.location, remove.location, gout.location = (150, 0), (380, 0), (600, 0)
+    setpos.location, remove.location, gout.location = (150, 0), (380, 0), (850, 0)
     ng[GROUP_TAG] = GROUP_VERSION
 
 
@@ -282,15 +324,18 @@ def forget_identifiers():
     _identifiers.clear()
 
 
-def _input_identifier(md, render=False):
+def _input_identifier(md, render=False, name=None):
+    """The identifier of the group's input `name` (default: the offsets carrier of a render or
+    of the viewport)."""
     ng = md.node_group
     if ng is None:
         return None
-    key = (ng.as_pointer(), ng.get(GROUP_TAG), render)
+    name = name or INPUTS[render]
+    key = (ng.as_pointer(), ng.get(GROUP_TAG), name)
     found = _identifiers.get(key)
     if found is None:
         for item in ng.interface.items_tree:
-            if getattr(item, "in_out", None) == 'INPUT' and item.name == INPUTS[render]:
+            if getattr(item, "in_out", None) == 'INPUT' and item.name == name:
                 found = item.identifier
                 break
         if found is not None:
@@ -312,9 +357,9 @@ def _input_slot(md, identifier):
     return slot
 
 
-def get_carrier(md, render=False):
-    """The object the modifier's Carrier (Render Carrier) input points at, or None."""
-    identifier = _input_identifier(md, render)
+def get_carrier(md, render=False, name=None):
+    """The object the modifier's Carrier (Render Carrier; input `name`) points at, or None."""
+    identifier = _input_identifier(md, render, name)
     if identifier is None:
         return None
     if getattr(getattr(md, "properties", None), "inputs", None) is not None:
@@ -324,10 +369,10 @@ def get_carrier(md, render=False):
     return value if isinstance(value, bpy.types.Object) else None
 
 
-def set_carrier(md, carrier, render=False):
-    identifier = _input_identifier(md, render)
+def set_carrier(md, carrier, render=False, name=None):
+    identifier = _input_identifier(md, render, name)
     if identifier is None:
-        raise RuntimeError(f"the node group of '{md.name}' has no {INPUTS[render]} input")
+        raise RuntimeError(f"the node group of '{md.name}' has no {name or INPUTS[render]} input")
     slot = _input_slot(md, identifier)
     if slot is not None:
         slot.value = carrier
@@ -343,8 +388,15 @@ def set_carrier(md, carrier, render=False):
 
 
 def owns(obj, carrier, render=False):
+    """Whether `carrier` is `obj`'s own offsets carrier of the viewport (of renders)."""
     return (carrier is not None and carrier.type == 'MESH' and carrier.get(CARRIER_OWNER) == obj.name
-            and bool(carrier.get(CARRIER_RENDER, False)) == render)
+            and bool(carrier.get(CARRIER_RENDER, False)) == render and not carrier.get(CARRIER_MESH, False))
+
+
+def owns_mesh_carrier(obj, carrier):
+    """Whether `carrier` is `obj`'s own mesh carrier."""
+    return (carrier is not None and carrier.type == 'MESH' and carrier.get(CARRIER_OWNER) == obj.name
+            and bool(carrier.get(CARRIER_MESH, False)))
 
 
 def _writable(carrier):
@@ -391,6 +443,69 @@ def carriers(obj, md, vertex_count):
     return [carrier(obj, md, vertex_count, True, render) for render in (False, True)]
 
 
+def _mesh_copy(obj, name):
+    """A copy of the object's mesh for its mesh carrier: faces, attributes, UVs, vertex groups
+    and materials as they are; no shape keys (the carrier's positions are final)."""
+    mesh = obj.data.copy()
+    mesh.name = name
+    if mesh.shape_keys is not None:
+        holder = bpy.data.objects.new(name, mesh)  # shape keys go through an object
+        holder.shape_key_clear()
+        bpy.data.objects.remove(holder)
+    attr = mesh.attributes.get(OFFSET_ATTRIBUTE)
+    if attr is not None:
+        mesh.attributes.remove(attr)
+    return mesh
+
+
+def mesh_carrier(obj, md, stale=False):
+    """(mesh carrier, fresh): the object's own mesh carrier holding a copy of its mesh: the one
+    the modifier points at if `obj` owns it, filled again (a new copy) when empty, of another
+    vertex count, or `stale`; else a new one. (None, False) for a linked modifier, which cannot
+    point anywhere else. `fresh`: copied now, so it holds the rest positions."""
+    if md.id_data.library is not None:
+        return None, False
+    if _input_identifier(md, name=MESH_CARRIER_INPUT) is None:
+        md.node_group = node_group()  # a group of an older layout: brought up to date
+    c = get_carrier(md, name=MESH_CARRIER_INPUT)
+    name = (MESH_CARRIER_PREFIX + obj.name)[:63]
+    if owns_mesh_carrier(obj, c) and _writable(c):
+        if not stale and len(c.data.vertices) == len(obj.data.vertices) > 0:
+            return c, False
+        old = c.data
+        c.data = _mesh_copy(obj, name)
+        if old.users == 0:
+            bpy.data.meshes.remove(old)
+        return c, True
+    c = bpy.data.objects.new(name, _mesh_copy(obj, name))
+    c[CARRIER_OWNER] = obj.name
+    c[CARRIER_MESH] = True
+    c.hide_select = True
+    set_carrier(md, c, name=MESH_CARRIER_INPUT)
+    return c, True
+
+
+def mesh_carrier_in_use(obj, md):
+    """The object's own mesh carrier if it holds a mesh (the modifier then hands it on), else None."""
+    if md is None or _input_identifier(md, name=MESH_CARRIER_INPUT) is None:
+        return None
+    c = get_carrier(md, name=MESH_CARRIER_INPUT)
+    if owns_mesh_carrier(obj, c) and _writable(c) and len(c.data.vertices) > 0:
+        return c
+    return None
+
+
+def empty_mesh_carrier(obj, md):
+    """The mesh carrier emptied (its copy dropped): the offsets carrier serves. Returns True if
+    it held a mesh."""
+    c = mesh_carrier_in_use(obj, md)
+    if c is None:
+        return False
+    c.data.clear_geometry()
+    c.data.update()
+    return True
+
+
 def write_offsets(carrier_obj, offsets):
     """Writes (N,3) float32 (the offsets, or the packed blocks: see FRAME_BLOCKS) as the
     carrier's vertex positions and tags it (the character's mesh is not touched)."""
@@ -417,7 +532,7 @@ def clear_offsets(obj):
     """The object's carriers (those it owns) go empty: the modifier then does nothing. The
     mesh is left alone. Returns True if there was something to clear."""
     md = find(obj)
-    cleared = False
+    cleared = empty_mesh_carrier(obj, md)
     for render in (False, True):
         c = get_carrier(md, render) if md is not None else None
         if not owns(obj, c, render) or not _writable(c) or len(c.data.vertices) == 0:
@@ -434,11 +549,14 @@ def remove_carrier(obj):
     md = find(obj)
     if md is None:
         return
-    for render in (False, True):
-        c = get_carrier(md, render)
+    for render, name in ((False, None), (True, None), (False, MESH_CARRIER_INPUT)):
+        if _input_identifier(md, render, name) is None:
+            continue
+        c = get_carrier(md, render, name)
         if c is not None and md.id_data.library is None:
-            set_carrier(md, None, render)
-        if owns(obj, c, render) and _writable(c) and c.users == 0:
+            set_carrier(md, None, render, name)
+        mine = owns_mesh_carrier(obj, c) if name else owns(obj, c, render)
+        if mine and _writable(c) and c.users == 0:
             mesh = c.data
             bpy.data.objects.remove(c)
             if mesh.users == 0:
