@@ -87,6 +87,52 @@ def _int_inputs(node):
     return found[0], found[1]
 
 
+def _object_geometry(nodes, links, socket):
+    """Object Info (Original space) of the object given by `socket`."""
+    info = nodes.new('GeometryNodeObjectInfo')
+    info.transform_space = 'ORIGINAL'
+    links.new(socket, info.inputs['Object'])
+    return info
+
+
+def _point_count(nodes, links, geometry):
+    """Domain Size (mesh) of `geometry`."""
+    size = nodes.new('GeometryNodeAttributeDomainSize')
+    size.component = 'MESH'
+    links.new(geometry, size.inputs['Geometry'])
+    return size
+
+
+def _equal(nodes, links, first, second):
+    """Compare (integers, equal) of two sockets."""
+    compare = nodes.new('FunctionNodeCompare')
+    compare.data_type = 'INT'
+    compare.operation = 'EQUAL'
+    a, b = _int_inputs(compare)
+    links.new(first, a)
+    links.new(second, b)
+    return compare
+
+
+def _switch(nodes, links, kind, condition, if_false, if_true):
+    """Switch of `kind` ('GEOMETRY', 'VECTOR') on `condition`."""
+    switch = nodes.new('GeometryNodeSwitch')
+    switch.input_type = kind
+    links.new(condition, switch.inputs['Switch'])
+    links.new(if_false, switch.inputs['False'])
+    links.new(if_true, switch.inputs['True'])
+    return switch
+
+
+def _binary(nodes, links, node_type, operation, first, second):
+    """A Boolean Math or Vector Math node (`node_type`) doing `operation` on two sockets."""
+    node = nodes.new(node_type)
+    node.operation = operation
+    links.new(first, node.inputs[0])
+    links.new(second, node.inputs[1])
+    return node
+
+
 def _build(ng):
     _identifiers.clear()  # its sockets are made again
     ng.nodes.clear()
@@ -103,18 +149,11 @@ def _build(ng):
     gout = nodes.new('NodeGroupOutput')
     # The viewport's carrier or the render's (a render in another thread while the viewport
     # plays other frames: each evaluation reads the offsets written for it).
-    info = nodes.new('GeometryNodeObjectInfo')
-    info.transform_space = 'ORIGINAL'
-    links.new(gin.outputs[CARRIER_INPUT], info.inputs['Object'])
-    render_info = nodes.new('GeometryNodeObjectInfo')
-    render_info.transform_space = 'ORIGINAL'
-    links.new(gin.outputs[RENDER_CARRIER_INPUT], render_info.inputs['Object'])
+    info = _object_geometry(nodes, links, gin.outputs[CARRIER_INPUT])
+    render_info = _object_geometry(nodes, links, gin.outputs[RENDER_CARRIER_INPUT])
     is_viewport = nodes.new('GeometryNodeIsViewport')
-    pick = nodes.new('GeometryNodeSwitch')
-    pick.input_type = 'GEOMETRY'
-    links.new(is_viewport.outputs[0], pick.inputs['Switch'])
-    links.new(render_info.outputs['Geometry'], pick.inputs['False'])
-    links.new(info.outputs['Geometry'], pick.inputs['True'])
+    pick = _switch(nodes, links, 'GEOMETRY', is_viewport.outputs[0], render_info.outputs['Geometry'],
+                   info.outputs['Geometry'])
     position = nodes.new('GeometryNodeInputPosition')
     index = nodes.new('GeometryNodeInputIndex')
     sample = nodes.new('GeometryNodeSampleIndex')
@@ -124,42 +163,24 @@ def _build(ng):
     links.new(position.outputs['Position'], sample.inputs['Value'])
     links.new(index.outputs['Index'], sample.inputs['Index'])
     # counts: the incoming mesh's and the carrier's points
-    size_in = nodes.new('GeometryNodeAttributeDomainSize')
-    size_in.component = 'MESH'
-    size_carrier = nodes.new('GeometryNodeAttributeDomainSize')
-    size_carrier.component = 'MESH'
-    links.new(gin.outputs['Geometry'], size_in.inputs['Geometry'])
-    links.new(pick.outputs[0], size_carrier.inputs['Geometry'])
-    plain = nodes.new('FunctionNodeCompare')
-    plain.data_type = 'INT'
-    plain.operation = 'EQUAL'
-    a, b = _int_inputs(plain)
-    links.new(size_in.outputs['Point Count'], a)
-    links.new(size_carrier.outputs['Point Count'], b)
+    size_in = _point_count(nodes, links, gin.outputs['Geometry'])
+    size_carrier = _point_count(nodes, links, pick.outputs[0])
+    plain = _equal(nodes, links, size_in.outputs['Point Count'], size_carrier.outputs['Point Count'])
     packed_size = nodes.new('ShaderNodeMath')
     packed_size.operation = 'MULTIPLY'
     links.new(size_in.outputs['Point Count'], packed_size.inputs[0])
     packed_size.inputs[1].default_value = float(FRAME_BLOCKS)
-    packed = nodes.new('FunctionNodeCompare')
-    packed.data_type = 'INT'
-    packed.operation = 'EQUAL'
-    a, b = _int_inputs(packed)
-    links.new(packed_size.outputs[0], a)
-    links.new(size_carrier.outputs['Point Count'], b)
-    same = nodes.new('FunctionNodeBooleanMath')
-    same.operation = 'OR'
-    links.new(plain.outputs['Result'], same.inputs[0])
-    links.new(packed.outputs['Result'], same.inputs[1])
+    packed = _equal(nodes, links, packed_size.outputs[0], size_carrier.outputs['Point Count'])
+    same = _binary(nodes, links, 'FunctionNodeBooleanMath', 'OR', plain.outputs['Result'], packed.outputs['Result'])
     has_carrier = nodes.new('FunctionNodeCompare')
     has_carrier.data_type = 'INT'
     has_carrier.operation = 'GREATER_THAN'
     a, b = _int_inputs(has_carrier)
     links.new(size_carrier.outputs['Point Count'], a)
     b.default_value = 0
-    differ = nodes.new('FunctionNodeBooleanMath')
-    differ.operation = 'NIMPLY'  # has a carrier and not the same count
-    links.new(has_carrier.outputs['Result'], differ.inputs[0])
-    links.new(same.outputs[0], differ.inputs[1])
+    # has a carrier and not the same count
+    differ = _binary(nodes, links, 'FunctionNodeBooleanMath', 'NIMPLY', has_carrier.outputs['Result'],
+                     same.outputs[0])
     use = nodes.new('FunctionNodeBooleanMath')
     use.operation = 'NOT'
     try:  # Blender 4.3+: the warning shows on the modifier; its output gates the deformation
@@ -196,30 +217,18 @@ def _build(ng):
         at_index.location, at.location = (-650, -950 - 160 * k), (-400, -950 - 160 * k)
         sampled.append(at.outputs[0])
     incoming = nodes.new('GeometryNodeInputPosition')
-    moved = nodes.new('ShaderNodeVectorMath')
-    moved.operation = 'SUBTRACT'
-    links.new(incoming.outputs['Position'], moved.inputs[0])
-    links.new(sampled[3], moved.inputs[1])
+    moved = _binary(nodes, links, 'ShaderNodeVectorMath', 'SUBTRACT', incoming.outputs['Position'], sampled[3])
     combine = nodes.new('ShaderNodeCombineXYZ')
     for i in range(3):
-        dot = nodes.new('ShaderNodeVectorMath')
-        dot.operation = 'DOT_PRODUCT'
-        links.new(sampled[i], dot.inputs[0])
-        links.new(moved.outputs['Vector'], dot.inputs[1])
+        dot = _binary(nodes, links, 'ShaderNodeVectorMath', 'DOT_PRODUCT', sampled[i], moved.outputs['Vector'])
         links.new(dot.outputs['Value'], combine.inputs[i])
         dot.location = (-150, -950 - 160 * i)
-    total = nodes.new('ShaderNodeVectorMath')
-    total.operation = 'ADD'
-    links.new(sample.outputs[0], total.inputs[0])
-    links.new(combine.outputs['Vector'], total.inputs[1])
+    total = _binary(nodes, links, 'ShaderNodeVectorMath', 'ADD', sample.outputs[0], combine.outputs['Vector'])
     # Only a carrier of FRAME_BLOCKS x the vertices needs the J part: the switch's condition is a
     # single value, so Blender evaluates only the branch it picks (layout 3; in layout 2 the four
     # samples of the J part, over zeros, made each evaluation of the mesh ~3x as long).
-    with_frames = nodes.new('GeometryNodeSwitch')
-    with_frames.input_type = 'VECTOR'
-    links.new(packed.outputs['Result'], with_frames.inputs['Switch'])
-    links.new(sample.outputs[0], with_frames.inputs['False'])
-    links.new(total.outputs['Vector'], with_frames.inputs['True'])
+    with_frames = _switch(nodes, links, 'VECTOR', packed.outputs['Result'], sample.outputs[0],
+                          total.outputs['Vector'])
     links.new(with_frames.outputs[0], setpos.inputs['Offset'])
     with_frames.location = (100, -150)
     incoming.location, moved.location = (-400, -1600), (-150, -1600)
@@ -227,27 +236,13 @@ def _build(ng):
     links.new(setpos.outputs['Geometry'], remove.inputs['Geometry'])
     # The viewport's mesh carrier, handed on as it is when it has the incoming point count (an
     # emptied one has none). The condition is a single value: only the branch picked runs.
-    whole_info = nodes.new('GeometryNodeObjectInfo')
-    whole_info.transform_space = 'ORIGINAL'
-    links.new(gin.outputs[MESH_CARRIER_INPUT], whole_info.inputs['Object'])
-    size_whole = nodes.new('GeometryNodeAttributeDomainSize')
-    size_whole.component = 'MESH'
-    links.new(whole_info.outputs['Geometry'], size_whole.inputs['Geometry'])
-    whole_count = nodes.new('FunctionNodeCompare')
-    whole_count.data_type = 'INT'
-    whole_count.operation = 'EQUAL'
-    a, b = _int_inputs(whole_count)
-    links.new(size_in.outputs['Point Count'], a)
-    links.new(size_whole.outputs['Point Count'], b)
-    whole_here = nodes.new('FunctionNodeBooleanMath')
-    whole_here.operation = 'AND'
-    links.new(is_viewport.outputs[0], whole_here.inputs[0])
-    links.new(whole_count.outputs['Result'], whole_here.inputs[1])
-    whole = nodes.new('GeometryNodeSwitch')
-    whole.input_type = 'GEOMETRY'
-    links.new(whole_here.outputs[0], whole.inputs['Switch'])
-    links.new(remove.outputs['Geometry'], whole.inputs['False'])
-    links.new(whole_info.outputs['Geometry'], whole.inputs['True'])
+    whole_info = _object_geometry(nodes, links, gin.outputs[MESH_CARRIER_INPUT])
+    size_whole = _point_count(nodes, links, whole_info.outputs['Geometry'])
+    whole_count = _equal(nodes, links, size_in.outputs['Point Count'], size_whole.outputs['Point Count'])
+    whole_here = _binary(nodes, links, 'FunctionNodeBooleanMath', 'AND', is_viewport.outputs[0],
+                         whole_count.outputs['Result'])
+    whole = _switch(nodes, links, 'GEOMETRY', whole_here.outputs[0], remove.outputs['Geometry'],
+                    whole_info.outputs['Geometry'])
     links.new(whole.outputs[0], gout.inputs['Geometry'])
     whole_info.location, size_whole.location = (-1150, 350), (-900, 350)
     whole_count.location, whole_here.location, whole.location = (-650, 350), (-400, 350), (600, 100)
