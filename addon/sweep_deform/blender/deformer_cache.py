@@ -293,13 +293,17 @@ def clear():
     bound_objects.clear()
 
 
-def mesh_changed(mesh):
+def mesh_changed(mesh, keys_only=False):
     """The mesh was edited (attributes, UVs, materials, ...): the mesh carriers copying it are
-    copied again at their next write."""
+    copied again at their next write, and its shape keys are read again. `keys_only`: only its
+    shape keys were updated (values, or the keys' shapes)."""
     pointer = mesh.as_pointer()
     for e in _cache.values():
         if e.mesh_pointer == pointer:
-            e.mesh_stale = True
+            if not keys_only:
+                e.mesh_stale = True
+            if e._shape_key_buffers is not None:
+                e._shape_key_buffers.forget()
 
 
 def settings_changed(obj):

@@ -216,6 +216,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # map (not with the anatomical effects, which stay position-based): shape keys alone are
     # turned in the core (their displacement is known here), anything else by the node group
     # from J in the carrier.
+    e.mesh_pointer = obj.data.as_pointer()  # its edits reach the entry (handlers._meshes_changed)
     before = modifier.moved_before(obj, md, render)
     with_frames = e.anatomy is None and (before or modifier.has_shape_keys(obj))
     moves = None  # (the vertices the keys move, their displacements (M,3) mesh space)
@@ -240,7 +241,6 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         targets = [modifier.carrier(obj, md, count, create=False, render=True)]
     else:
         if whole:
-            e.mesh_pointer = obj.data.as_pointer()  # its changes make the copy stale (handlers.py)
             targets = [modifier.mesh_carrier(obj, md, stale=e.mesh_stale)]
             e.mesh_stale = False
         else:

@@ -101,9 +101,10 @@ def evaluate_scene(scene, depsgraph, render=False):
 
 
 def _meshes_changed(depsgraph):
-    """Meshes edited in this update (their mesh carriers copy them again): a mesh whose geometry
-    was updated, unless its shape keys were too (an animated or dragged key value re-evaluates
-    the mesh on every frame, and the keys are not in the copy)."""
+    """Meshes edited in this update (their mesh carriers copy them again, their shape keys are
+    read again): a mesh whose geometry was updated, unless its shape keys were too (an animated
+    or dragged key value re-evaluates the mesh on every frame, and the keys are not in the copy:
+    only the keys are read again)."""
     meshes, keys = [], set()
     for update in depsgraph.updates:
         if not update.is_updated_geometry:
@@ -113,8 +114,8 @@ def _meshes_changed(depsgraph):
         elif isinstance(update.id, bpy.types.Key):
             keys.add(update.id.original.as_pointer())
     for mesh in meshes:
-        if mesh.shape_keys is None or mesh.shape_keys.as_pointer() not in keys:
-            deformer_cache.mesh_changed(mesh)
+        by_keys = mesh.shape_keys is not None and mesh.shape_keys.as_pointer() in keys
+        deformer_cache.mesh_changed(mesh, keys_only=by_keys)
 
 
 @persistent

@@ -65,21 +65,32 @@ def displacements(obj, depsgraph, rest, scratch):
             return None  # weighted per vertex: the general path
         terms.append((block_of(block), block_of(block.relative_key)))
         values.append(value)
-    positions = scratch.blocks(len(blocks))
-    for i, block in enumerate(blocks):
-        block.points.foreach_get('co', positions[i].reshape(-1))
-    count = native.mix_shape_keys(rest, positions, np.array(terms, np.int32).reshape(-1, 2),
-                                  np.array(values, np.float32), scratch.moved, scratch.moves)
-    return scratch.moved[:count], scratch.moves[:count]
+    mix = ([b.name for b in blocks], terms, values)
+    if mix != scratch.mixed:  # else the same keys and values as last time, and no key edited since
+        positions = scratch.blocks(len(blocks))
+        for i, block in enumerate(blocks):
+            block.points.foreach_get('co', positions[i].reshape(-1))
+        scratch.count = native.mix_shape_keys(rest, positions, np.array(terms, np.int32).reshape(-1, 2),
+                                              np.array(values, np.float32), scratch.moved, scratch.moves)
+        scratch.mixed = mix
+    return scratch.moved[:scratch.count], scratch.moves[:scratch.count]
 
 
 class ShapeKeyBuffers:
-    """Per bound object: the keys' positions as read (grown as needed) and the mix's output."""
+    """Per bound object: the keys' positions as read (grown as needed), the mix's output, and
+    what it mixed: (the blocks read, the terms, the values). A frame with the same keys at the
+    same values takes the output as it is (reading and mixing the keys took 0.5 ms a frame at
+    75K vertices); an edit of the keys or the mesh forgets it (forget(), from handlers.py)."""
 
     def __init__(self, vertex_count):
         self._blocks = np.empty((0, vertex_count, 3), np.float32)
         self.moved = np.empty(vertex_count, np.int32)
         self.moves = np.empty((vertex_count, 3), np.float32)
+        self.count = 0
+        self.mixed = None
+
+    def forget(self):
+        self.mixed = None
 
     def blocks(self, count):
         if len(self._blocks) < count:
