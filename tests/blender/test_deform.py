@@ -447,7 +447,15 @@ def test_remove_and_unbind_restore_the_armature_modifier():
     helpers.use_test_rig([char])
     obj = helpers.bind(char)
     arm_md = obj.modifiers[obj.sweep_deform.armature_modifier]
+    helpers.pose_limbs(char, elbow=0.7)
+    bpy.context.view_layer.update()  # (the viewport's mesh carrier made)
+    modifier = helpers.sub("blender.modifier")
+    prefixes = tuple(modifier.CARRIER_PREFIX.values()) + (modifier.MESH_CARRIER_PREFIX,)
+    assert len([o for o in bpy.data.objects if o.name.startswith(prefixes)]) == 3
     assert bpy.ops.object.sweep_deform_unbind() == {'FINISHED'}
+    # Unbinding deletes the carriers and their meshes (the mesh carrier's is a copy of the mesh).
+    assert not [o for o in bpy.data.objects if o.name.startswith(prefixes)]
+    assert not [m for m in bpy.data.meshes if m.name.startswith(prefixes)]
     assert arm_md.show_viewport and arm_md.show_render and arm_md.object == char.armature
     assert obj.sweep_deform.state == 'UNBOUND' and helpers.sub("blender.modifier").find(obj) is not None
     assert bpy.ops.object.sweep_deform_bind() == {'FINISHED'}
