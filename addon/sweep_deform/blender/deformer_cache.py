@@ -40,7 +40,7 @@ class Entry:
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
         # The mesh carrier (modifier.py): the mesh it copies, whether that changed since, the
         # deformed positions' buffer and the keys' displacements last added to them.
-        self.mesh_pointer = None
+        self.mesh_pointer = self.mesh_copied = None  # the object's mesh; the one last copied
         self.mesh_stale = True  # a new entry (after load, undo, a new binding) copies afresh
         self._positions = None
         self.whole_moves = None

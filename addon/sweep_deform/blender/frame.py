@@ -240,9 +240,9 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     if render:
         targets = [modifier.carrier(obj, md, count, create=False, render=True)]
     else:
-        if whole:
-            targets = [modifier.mesh_carrier(obj, md, stale=e.mesh_stale)]
-            e.mesh_stale = False
+        if whole:  # (copied again after an edit, or for another mesh given to the object)
+            targets = [modifier.mesh_carrier(obj, md, stale=e.mesh_stale or e.mesh_copied != e.mesh_pointer)]
+            e.mesh_stale, e.mesh_copied = False, e.mesh_pointer
         else:
             fall_back_to_offsets(obj, md, depsgraph)
             targets = [modifier.carrier(obj, md, count)]
