@@ -209,6 +209,11 @@ class Entry:
             self.moves_seen += 1
         return moved, rows
 
+    def moves_copy(self):
+        """The last moving()'s (moved, rows) as copies of their own (replaced, never changed, when
+        the keys' displacements change)."""
+        return self._moves_last
+
     def forget_writes(self):
         """The next evaluation computes and writes again, whatever it finds."""
         self.written.clear()

@@ -292,7 +292,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
     if whole:  # the deformed positions: the mesh + offsets, and the keys' displacements turned
         offsets = np.add(e.mesh_rest(obj), offsets, out=e.positions_buffer())
-        e.whole_moves = moves
+        e.whole_moves = e.moves_copy() if moves is not None else None  # (a render may mix other values)
     if moves is not None:  # the keys' turned displacements: + J d (positions), + (J - I) d (offsets)
         change = turned if to_mesh is None else turned @ to_mesh
         if not whole:
