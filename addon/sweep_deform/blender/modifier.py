@@ -471,6 +471,7 @@ def mesh_carrier(obj, md, stale=False):
         c.data = _mesh_copy(obj, name)
         if old.users == 0:
             bpy.data.meshes.remove(old)
+            c.data.name = name  # (the copy took a ".001" while the old mesh held the name)
         return c, True
     c = bpy.data.objects.new(name, _mesh_copy(obj, name))
     c[CARRIER_OWNER] = obj.name
