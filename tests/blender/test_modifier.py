@@ -749,7 +749,13 @@ def test_the_viewport_hands_on_a_copy_of_the_mesh_kept_up_to_date():
     got_uv, _, _, got_materials, _ = _evaluated_data(obj)
     np.testing.assert_array_equal(got_uv, new_uv)
     assert got_materials == ["Leather", "Cloth"]
-    check_equals_core(obj, "after the edit")
+    co = check_equals_core(obj, "after the edit")
+    # Deleted by hand (the Outliner's Blender File view): made again at the next update.
+    bpy.data.objects.remove(c)
+    obj.update_tag()
+    bpy.context.view_layer.update()
+    assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is not None
+    np.testing.assert_array_equal(check_equals_core(obj, "carrier made again"), co)
 
 
 def test_animated_shape_keys_do_not_copy_the_mesh_on_every_frame():
