@@ -82,40 +82,35 @@ def main():
         assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
         measure_frame.configure(body, 'sweep')
         measure_frame.time_posing(body, arm, measure_frame.poses(3, bones))
-        # The offsets carrier's path first (the variants sample it), the mesh carrier emptied.
+        # The frame's positions (the mesh carrier serves now) and offsets (the mesh carrier emptied:
+        # the variants sample the offsets carrier).
         from bl_ext.user_default.sweep_deform.blender import frame
-        _, _, positions = measure_frame.carrier_of(body)  # the mesh carrier's, serving now
+        _, _, positions = measure_frame.carrier_of(body)
         frame.fall_back_to_offsets(body)
         md, carrier, base = measure_frame.carrier_of(body)
-        offsets = base.copy()
         vl = bpy.context.view_layer
         product = md.node_group
         kinds = ('least', 'one offset', 'unlinked index', 'through')
         groups = [("the product's", product)] + [(k, variant(k, modifier)) for k in kinds]
+        groups.append(("mesh carrier", product))  # the product's group handing on the mesh carrier
         times, shown = {label: [] for label, _ in groups}, {}
-        times["mesh carrier"] = []
         try:
             with measure_frame.handler_out():
                 for _ in range(3):  # rounds, the groups taking turns
                     for label, ng in groups:
                         md.node_group = ng
                         modifier.set_carrier(md, carrier)
+                        if label == "mesh carrier":  # (filled again; emptied below for the others)
+                            written, values = modifier.mesh_carrier(body, md, stale=True)[0], positions
+                        else:
+                            written, values = carrier, base
                         vl.update()
-                        times[label] += measure_frame.time_carrier_writes(carrier, offsets, opts["frames"] // 3)
-                        modifier.write_offsets(carrier, base)  # the same offsets for every group
+                        times[label] += measure_frame.time_carrier_writes(written, values.copy(),
+                                                                          opts["frames"] // 3)
+                        modifier.write_offsets(written, values)  # the same frame for every group
                         vl.update()
                         shown[label] = helpers.evaluated_positions(body)[0].copy()
-            # The product's group handing on the mesh carrier (what serves in the viewport).
-            mesh_carrier, _ = modifier.mesh_carrier(body, md)
-            groups.append(("mesh carrier", product))
-            with measure_frame.handler_out():
-                modifier.write_offsets(mesh_carrier, positions)
-                vl.update()
-                times["mesh carrier"] = measure_frame.time_carrier_writes(mesh_carrier, positions.copy(),
-                                                                          opts["frames"] // 3 * 3)
-                modifier.write_offsets(mesh_carrier, positions)
-                vl.update()
-                shown["mesh carrier"] = helpers.evaluated_positions(body)[0].copy()
+                        modifier.empty_mesh_carrier(body, md)
         finally:
             md.node_group = product
             modifier.set_carrier(md, carrier)

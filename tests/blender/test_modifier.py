@@ -91,11 +91,9 @@ def test_playback_leaves_the_mesh_untouched():
 
 
 def carrier_positions(obj, render):
+    """The positions of the object's offsets carrier of the viewport (of renders)."""
     modifier = helpers.sub("blender.modifier")
-    c = modifier.get_carrier(modifier.find(obj), render)
-    co = np.empty(len(c.data.vertices) * 3, np.float32)
-    c.data.vertices.foreach_get("co", co)
-    return co.reshape(-1, 3)
+    return helpers.base_positions(modifier.get_carrier(modifier.find(obj), render))
 
 
 def viewport_offsets(obj):
@@ -105,9 +103,16 @@ def viewport_offsets(obj):
     c = modifier.mesh_carrier_in_use(obj, modifier.find(obj))
     if c is None:
         return carrier_positions(obj, False)
-    co = np.empty(len(c.data.vertices) * 3, np.float32)
-    c.data.vertices.foreach_get("co", co)
-    return co.reshape(-1, 3) - helpers.base_positions(obj)
+    return helpers.base_positions(c) - helpers.base_positions(obj)
+
+
+def modifier_before(obj):
+    """A Displace of strength 0 first in the stack: it moves nothing, yet sends the frame through
+    the node group's general path (J in the offsets carrier)."""
+    before = obj.modifiers.new("Nothing", 'DISPLACE')
+    before.strength = 0.0
+    obj.modifiers.move(list(obj.modifiers).index(before), 0)
+    return before
 
 
 def posed_for_a_render():
@@ -711,9 +716,7 @@ def test_the_viewport_hands_on_a_copy_of_the_mesh_kept_up_to_date():
 
     # The same frame through the offsets carrier (a modifier before Sweep Deform that moves
     # nothing sends it there): the same positions to the bit.
-    before = obj.modifiers.new("Nothing", 'DISPLACE')
-    before.strength = 0.0
-    obj.modifiers.move(list(obj.modifiers).index(before), 0)
+    before = modifier_before(obj)
     bpy.context.view_layer.update()
     assert modifier.mesh_carrier_in_use(obj, modifier.find(obj)) is None
     np.testing.assert_array_equal(_evaluated_data(obj)[4], co)
@@ -899,9 +902,7 @@ def test_a_held_shape_key_is_mixed_once_and_again_when_edited():
     finally:
         native.mix_shape_keys = mix
     # The same frame through the node group's general path (a modifier before Sweep Deform).
-    before = obj.modifiers.new("Nothing", 'DISPLACE')
-    before.strength = 0.0
-    obj.modifiers.move(list(obj.modifiers).index(before), 0)
+    modifier_before(obj)
     bpy.context.view_layer.update()
     general = helpers.evaluated_positions(obj)[0]
     assert np.abs(valued - general).max() <= 1e-5 * helpers.diagonal(base)

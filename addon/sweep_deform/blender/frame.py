@@ -218,7 +218,8 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # from J in the carrier.
     e.mesh_pointer = obj.data.as_pointer()  # its edits reach the entry (handlers._meshes_changed)
     before = modifier.moved_before(obj, md, render)
-    with_frames = e.anatomy is None and (before or modifier.has_shape_keys(obj))
+    keyed = modifier.has_shape_keys(obj)
+    with_frames = e.anatomy is None and (before or keyed)
     moves = None  # (the vertices the keys move, their displacements (M,3) mesh space)
     if with_frames and not before:
         mixed = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.shape_key_buffers())
@@ -234,7 +235,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     # In the viewport, with nothing before Sweep Deform that the offsets must ride on, the mesh
     # carrier serves (modifier.py): Blender hands it on instead of sampling offsets.
     whole = (not render and not before and not with_frames and obj.mode == 'OBJECT'
-             and not (e.anatomy is not None and modifier.has_shape_keys(obj)))
+             and not (e.anatomy is not None and keyed))
     n = e.deformer.vertex_count
     count = n * (modifier.FRAME_BLOCKS if with_frames else 1)
     if render:

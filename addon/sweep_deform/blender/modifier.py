@@ -21,7 +21,7 @@ Blender offers. The node group (layout version 4) does::
   attributes, UVs, vertex groups, materials; no shape keys) whose positions are the frame's
   deformed positions: the group hands it on as it is. It serves whenever nothing before Sweep
   Deform moves the vertices (shape keys are turned by the core): sampling a carrier per
-  vertex costs Blender 0.5-0.6 ms a frame at 75K vertices, handing a mesh on 0.1-0.2 ms (see
+  vertex costs Blender 0.5-0.7 ms a frame at 75K vertices, handing a mesh on 0.1-0.3 ms (see
   docs/addon.md). It is copied again when the character's mesh changes (frame.py), emptied
   when it cannot serve (a modifier before that moves vertices, Edit Mode or a paint mode on
   the character, a file being saved: files keep only the offsets), and then the offsets
