@@ -16,17 +16,18 @@
 namespace sd {
 
 /// Thick chains (Sweep::bends_smoothly) in `posed` with half-axes a, b: the share of their
-/// volume hold kept, 1 while the sweep bends gently for its depth, falling to 0 where it bends
-/// so sharply that its planes close in on its inside edge (see deform.cpp, sweep_folding).
+/// restored volume that may go to the inside of the bend, 1 while the sweep bends gently for
+/// its depth, falling to 0 where it bends so sharply that its planes close in on its inside
+/// edge (see deform.cpp, sweep_folding).
 double folding_hold(const Sweep& sweep, const SweepGeometry& posed, const std::vector<double>& a,
                     const std::vector<double>& b);
 
 /// Thick chains (Sweep::bends_smoothly): grows each key's cross-section by how much shorter
 /// the posed sweep is than the rest sweep around the key (along its normals, the mean over its
-/// two spans, smoothed over two keys each side), blended by `strength`: a share towards the
-/// inside of the bend (scaled by `hold`, folding_hold of the same pose and half-axes), the key
-/// moved by shifts[k] so that its outside stays in place, the rest along the bend's axis. The
-/// volume controller then corrects what is left.
+/// two spans, spread along the sweep by rest arc length), blended by `strength`: a share
+/// towards the inside of the bend (scaled by `hold`, folding_hold of the same pose and
+/// half-axes), the key moved by shifts[k] so that its outside stays in place, the rest along
+/// the bend's axis. The volume controller then adds what is left, and takes nothing back.
 /// @param shifts  #K output, armature space
 /// @return whether any key moved (shifts not all zero)
 bool restore_local_volume(const Sweep& sweep, const SweepGeometry& posed, double strength, double hold,
