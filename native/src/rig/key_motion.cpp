@@ -121,10 +121,17 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
             // The last link: its share of the end key's twist, none of its swing. The twist is
             // taken about the link itself and the key turns about it, not about its own center:
             // a forearm turns about its bones, and a section centered a centimetre off them
-            // would otherwise swing round the bone and ripple the outline.
+            // would otherwise swing round the bone and ripple the outline. The share grows as
+            // the square of the key's place along the link, as a forearm turns: the radius
+            // rolls round the ulna at the wrist while the muscle bellies at the elbow hardly
+            // move. In proportion to the place, the elbow end's bulk turned a third of the
+            // wrist's turn and the twisted forearm was lumpy from behind; MakeHuman's skin
+            // there 1.028x its rest distance from the bone at 180 degrees, now 1.011
+            // (Preserve Volume 1.029).
             const KeyEllipse& j = keys[after[k]];
             const Link& link = links[k];
-            m.twist_share = link.fraction_of(e.center) * j.twist_fraction;
+            const double along = link.fraction_of(e.center);
+            m.twist_share = along * along * j.twist_fraction;
             if (m.twist_share > 0.0) {  // else rigid with its own bone
                 m.to_bone = j.bone;
                 const dvec3 d = link.end - link.start;

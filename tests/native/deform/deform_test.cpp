@@ -241,15 +241,18 @@ TEST(Deform, ElbowKeyBisectsTheJoint) {
 
 TEST(Deform, ForearmKeysOffTheBoneTurnAboutTheBone) {
     // The forearm's keys centred 2 cm off the bone (as a section's centroid is): twisting the
-    // hand by 180 degrees turns each about the forearm's axis by its share of the twist, so
-    // the key's center goes round the bone with its plane and keeps its distance from it.
+    // hand by 180 degrees turns each about the forearm's axis by its share of the twist, the
+    // square of its place along the forearm (1/9 and 4/9 at x = 4/3 and 5/3: in proportion to
+    // the place, the elbow end's bulk turned and the twisted forearm was lumpy), so the key's
+    // center goes round the bone with its plane and keeps its distance from it.
     const test::Arm arm;
     std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
     const double offset = 0.02;
     for (int k : {4, 5}) keys[k].center.y = offset;
     const auto [c, q] = posed_keys(arm_with_keys(arm, keys), arm.pose(0.0, glm::radians(180.0)));
     for (int k : {4, 5}) {
-        const double share = (keys[k].center.x - 1.0);  // fraction along the forearm; wrist twist 1
+        const double along = keys[k].center.x - 1.0;  // fraction along the forearm; wrist twist 1
+        const double share = along * along;
         const double turn = glm::radians(180.0) * share;
         EXPECT_NEAR(c[k].x, keys[k].center.x, 1e-12) << "key " << k;
         EXPECT_NEAR(c[k].y, offset * std::cos(turn), 1e-9) << "key " << k;
@@ -469,8 +472,10 @@ TEST(Deform, TwistedForearmOffTheBoneKeepsItsSkinsDistanceFromTheBone) {
         }
         std::printf("twist %3.0f deg: largest change of a forearm vertex's distance from the bone %.2e\n", degrees,
                     worst);
-        // The cubic through the turned centers: 1.35e-2 at 90 degrees, 2.69e-2 at 180.
-        EXPECT_LT(worst, 1e-4) << degrees << " degrees";
+        // The cubic through the turned centers: 1.35e-2 at 90 degrees, 2.69e-2 at 180. The
+        // correction, sampled five times a span, is exact to 8.5e-6 / 1.5e-4 (the last span
+        // turns by 5/9 of the twist: 100 degrees at 180).
+        EXPECT_LT(worst, 2.5e-4) << degrees << " degrees";
     }
 }
 

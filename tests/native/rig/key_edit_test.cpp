@@ -432,7 +432,7 @@ TEST(KeyEditAbi, ThePosedSweepOfATwistedLimbIsTheDeformersTrajectory) {
     double worst = 0.0;
     for (size_t i = 0; i < u.size(); ++i)
         worst = std::max(worst, std::abs(std::hypot(centers[3 * i + 1], centers[3 * i + 2]) - 0.02));
-    EXPECT_LT(worst, 1e-5);  // 2.2e-6 (float); the paper's cubic: 1.3e-3
+    EXPECT_LT(worst, 2.5e-5);  // 1.6e-5 (the last span turns 100 degrees); the paper's cubic: 1.3e-3
     sd_rig_destroy(rig);
 }
 
