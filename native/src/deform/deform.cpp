@@ -4,7 +4,6 @@
 #include "math/flush_denormals.h"
 #include "math/smoothstep.h"
 #include "rig/key_pose.h"
-#include "rig/trunk.h"
 #include "rig/twisted_trajectory.h"
 
 #include <algorithm>
@@ -70,59 +69,6 @@ std::vector<std::array<float, 4>> rest_inverse_rotations(const std::vector<std::
         out[i] = {-q[0], -q[1], -q[2], q[3]};
     }
     return out;
-}
-
-/// Which influences join their vertex as points rather than frames (SweepKernel): where skin
-/// passes from one sweep to another or to a bone, it is blended as rigid frames, so a filled
-/// part — the buttock and the groin between the trunk and a leg, the base of the neck, the
-/// wrist — keeps its volume as it turns (as points it cut the chord: the hip lost 4 % of its
-/// volume at 90 degrees of flexion). The exception is skin shared by the trunk and a sweep
-/// that leaves it sideways (an arm: its first key's normal more than 45 degrees off the
-/// trunk's axis, the trunk being the sweep that starts free): there the arm's influences
-/// (its sweep, and the bones its keys ride on) join as points. That skin is the armpit and
-/// the shoulder, a web between the chest and the arm that stretches along the chord as the
-/// arm rises; as frames it bulged the chest below the armpit at 160 degrees of abduction,
-/// and a chest vertex with 2 % of its weight on the raised upper arm moved 4 mm off the
-/// chord. But the arm's own skin beside the armpit, as points, cut the chord as linear blend
-/// skinning does: MakeHuman's upper arm a fifth down kept 0.84 of its section at 160 degrees
-/// (skinning 0.88, Preserve Volume 1.0). So the part of the arm's influences that joins as
-/// points falls from all of it where the arm holds half of the vertex's weight or less to
-/// none where it holds all of it (smoothstep): 0.93. A ramp from 40 % to 60 % drew a step
-/// across the side of the chest, one from 30 % a bump below the armpit. Within the arm (the
-/// wrist: its sweep and the hand's bone) influences stay frames.
-void point_influences(const Rig& rig, const Binding& b, std::vector<float>& point_sweep,
-                      std::vector<float>& point_bone) {
-    constexpr double kArmShareFramesFrom = 0.5;  // as points at or below this share of the weight
-    const size_t S = rig.sweeps.size();
-    point_sweep.assign(b.sweep_influences.size(), 0.0f);
-    point_bone.assign(b.bone_influences.size(), 0.0f);
-    const std::vector<char> sideways = sweeps_leaving_trunk_sideways(rig);
-    std::vector<uint8_t> arm_bone(rig.skeleton.bone_count(), 0);
-    for (size_t si = 0; si < S; ++si)
-        if (sideways[si])
-            for (const KeyEllipse& e : rig.sweeps[si].keys)
-                if (e.bone >= 0 && e.bone < rig.skeleton.bone_count()) arm_bone[e.bone] = 1;
-    for (int v = 0; v < b.vertex_count(); ++v) {
-        bool arm = false, other = false;
-        double arm_share = 0.0;
-        for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) {
-            const bool of_arm = sideways[b.sweep_influences[i].sweep];
-            (of_arm ? arm : other) = true;
-            if (of_arm) arm_share += b.sweep_influences[i].weight;
-        }
-        for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i) {
-            const bool of_arm = arm_bone[b.bone_influences[i].bone];
-            (of_arm ? arm : other) = true;
-            if (of_arm) arm_share += b.bone_influences[i].weight;
-        }
-        if (!(arm && other)) continue;
-        const float as_point =
-            static_cast<float>(1.0 - smoothstep01((arm_share - kArmShareFramesFrom) / (1.0 - kArmShareFramesFrom)));
-        for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i)
-            point_sweep[i] = sideways[b.sweep_influences[i].sweep] ? as_point : 0.0f;
-        for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
-            point_bone[i] = arm_bone[b.bone_influences[i].bone] ? as_point : 0.0f;
-    }
 }
 
 /// How far the volume control may be trusted on a sweep in a pose (issue 15), from 1 (fully)
@@ -381,7 +327,16 @@ Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(st
     }
     key_rotations_ = rest_key_rotations_;
     rest_inverse_ = rest_inverse_rotations(rest_key_rotations_, binding_.sweep_influences);
-    point_influences(rig_, binding_, point_sweep_, point_bone_);
+    // Every influence joins its vertex as a frame: where skin passes from one sweep to another
+    // or to a bone it is blended as rigid frames, so a filled part (the buttock between the
+    // trunk and a leg, the base of the neck, the wrist, the armpit) keeps its volume as it
+    // turns; as points it cut the chord (the hip lost 4 % of its volume at 90 degrees of
+    // flexion). The armpit's web joined its arm's influences partly as points until the
+    // fourteenth session: seen from the side, the raised arm's skin then met the chest along
+    // a horizontal line, where the chord of the points gave way to the arc of the frames
+    // (docs/quality.md).
+    point_sweep_.assign(binding_.sweep_influences.size(), 0.0f);
+    point_bone_.assign(binding_.bone_influences.size(), 0.0f);
     kernel_ = SweepKernel(binding_, span_base_, rest_inverse_, point_sweep_, point_bone_);
 }
 

@@ -124,7 +124,7 @@ private:
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;
     std::vector<BoneFrame> bone_frames_;           // per bone, bones_ as dual quaternions
-    std::vector<float> point_sweep_, point_bone_;  // per influence: the share that joins as a point
+    std::vector<float> point_sweep_, point_bone_;  // per influence: the share that joins as a point (0: frames)
     SweepKernel::LocalMaps maps_;                  // what deform() gives besides positions
 };
 
