@@ -285,9 +285,10 @@ def render(scene, path):
     bpy.ops.render.render(write_still=True)
 
 
-def render_strip(scene, path, views):
+def render_strip(scene, path, views, per_row=None):
     """Renders one picture per view and writes them side by side, left to right, to `path`
-    (PNG). `views`: functions that each place the scene's camera for one picture."""
+    (PNG); with `per_row`, in rows of that many, the first row on top. `views`: functions that
+    each place the scene's camera for one picture."""
     tiles = []
     for i, place_camera in enumerate(views):
         place_camera()
@@ -297,7 +298,9 @@ def render_strip(scene, path, views):
         tiles.append(np.array(img.pixels[:], np.float32).reshape(img.size[1], img.size[0], 4))
         bpy.data.images.remove(img)
         os.remove(tile)
-    strip = np.concatenate(tiles, axis=1)
+    per_row = per_row or len(tiles)
+    rows = [np.concatenate(tiles[i:i + per_row], axis=1) for i in range(0, len(tiles), per_row)]
+    strip = np.concatenate(rows[::-1], axis=0)  # Blender's pixels start at the bottom
     img = bpy.data.images.new("strip", strip.shape[1], strip.shape[0], alpha=True)
     img.pixels.foreach_set(strip.ravel())
     img.filepath_raw = os.path.abspath(path)

@@ -86,27 +86,9 @@ def main():
 
     azimuths = [float(x) for x in args.azimuths.split(",")]
     views = [view(a, b, az) for a, b, _ in columns for az in azimuths]
-    demo_scene.render_strip(scene, args.out, views)
-    rows_to_grid(args.out, len(azimuths))
+    demo_scene.render_strip(scene, args.out, views, per_row=len(azimuths))
     print(f"render_views: wrote {args.out} ({args.pose} {degrees:g} degrees; rows "
           f"{', '.join(label for _, _, label in columns)}; azimuths {args.azimuths})", flush=True)
-
-
-def rows_to_grid(path, per_row):
-    """Rewrites the strip at `path` as rows of `per_row` views, the first row on top."""
-    img = bpy.data.images.load(os.path.abspath(path))
-    w, h = img.size
-    px = np.array(img.pixels[:], np.float32).reshape(h, w, 4)
-    bpy.data.images.remove(img)
-    tiles = [px[:, i * h:(i + 1) * h] for i in range(w // h)]
-    rows = [np.concatenate(tiles[i:i + per_row], axis=1) for i in range(0, len(tiles), per_row)]
-    grid = np.concatenate(rows[::-1], axis=0)  # Blender's pixels start at the bottom
-    out = bpy.data.images.new("grid", grid.shape[1], grid.shape[0], alpha=True)
-    out.pixels.foreach_set(grid.ravel())
-    out.filepath_raw = os.path.abspath(path)
-    out.file_format = 'PNG'
-    out.save()
-    bpy.data.images.remove(out)
 
 
 if __name__ == "__main__":
