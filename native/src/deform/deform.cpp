@@ -336,9 +336,7 @@ Deformer::Deformer(Rig rig, Binding binding) : rig_(std::move(rig)), binding_(st
     // fourteenth session: seen from the side, the raised arm's skin then met the chest along
     // a horizontal line, where the chord of the points gave way to the arc of the frames
     // (docs/quality.md).
-    point_sweep_.assign(binding_.sweep_influences.size(), 0.0f);
-    point_bone_.assign(binding_.bone_influences.size(), 0.0f);
-    kernel_ = SweepKernel(binding_, span_base_, rest_inverse_, point_sweep_, point_bone_);
+    kernel_ = SweepKernel(binding_, span_base_, rest_inverse_);
 }
 
 void Deformer::set_volume_preservation(bool enabled, double strength) {

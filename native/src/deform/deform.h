@@ -123,9 +123,8 @@ private:
     SkeletonPose pose_;
     std::vector<HalfSpanKernel> half_spans_;  // 2 per span
     std::vector<Affine3x4> bones_;
-    std::vector<BoneFrame> bone_frames_;           // per bone, bones_ as dual quaternions
-    std::vector<float> point_sweep_, point_bone_;  // per influence: the share that joins as a point (0: frames)
-    SweepKernel::LocalMaps maps_;                  // what deform() gives besides positions
+    std::vector<BoneFrame> bone_frames_;  // per bone, bones_ as dual quaternions
+    SweepKernel::LocalMaps maps_;         // what deform() gives besides positions
 };
 
 }  // namespace sd

@@ -112,15 +112,15 @@ private:
 };
 
 /// Many vertices' blended frames (FrameBlend sums), as planes of floats (structure of arrays),
-/// normalised and applied: each vertex's point part gets share × (V + how far the blended
-/// frame moves V). A flat loop over independent vertices: it vectorises, and the square root
+/// normalised and applied: each vertex's position is share × (V + how far the blended frame
+/// moves V). A flat loop over independent vertices: it vectorises, and the square root
 /// and division of each vertex no longer sit in one long scalar chain.
 struct BlendedFrames {
     const float* real[4];  // Σ w q, x y z w
     const float* dual[4];  // Σ ½ w t q
     const float* rest[3];  // V
     const float* share;    // the frames' share of the vertex's weight
-    float* point[3];       // in: the influences that join as points; out: the vertex
+    float* position[3];    // out: the vertex
     float* norm2;          // out: |Σ w q|²; at most 1e-12 where the frames cancel (opposite
                            // rotations of equal weight: the caller keeps the convex combination)
     float* turn[4];        // out: the blended unit rotation (with J)
@@ -130,7 +130,7 @@ inline void apply_blended_frames(const BlendedFrames& f, int begin, int end) {
     const float* __restrict rx = f.real[0], * __restrict ry = f.real[1], * __restrict rz = f.real[2], * __restrict rw = f.real[3];
     const float* __restrict dx = f.dual[0], * __restrict dy = f.dual[1], * __restrict dz = f.dual[2], * __restrict dw = f.dual[3];
     const float* __restrict vx = f.rest[0], * __restrict vy = f.rest[1], * __restrict vz = f.rest[2], * __restrict share = f.share;
-    float* __restrict px = f.point[0], * __restrict py = f.point[1], * __restrict pz = f.point[2];
+    float* __restrict px = f.position[0], * __restrict py = f.position[1], * __restrict pz = f.position[2];
     float* __restrict n2_ = f.norm2, * __restrict tx = f.turn[0], * __restrict ty = f.turn[1], * __restrict tz = f.turn[2], * __restrict tw = f.turn[3];
     SD_NO_ALIASING
     for (int k = begin; k < end; ++k) {
@@ -146,9 +146,9 @@ inline void apply_blended_frames(const BlendedFrames& f, int begin, int end) {
         const float my = 2.0f * (cw * ey - ew * cy + (cz * ex - cx * ez));
         const float mz = 2.0f * (cw * ez - ew * cz + (cx * ey - cy * ex));
         const float s = share[k];
-        px[k] += s * (vx[k] + mx);
-        py[k] += s * (vy[k] + my);
-        pz[k] += s * (vz[k] + mz);
+        px[k] = s * (vx[k] + mx);
+        py[k] = s * (vy[k] + my);
+        pz[k] = s * (vz[k] + mz);
         n2_[k] = n2;
         tx[k] = cx;
         ty[k] = cy;

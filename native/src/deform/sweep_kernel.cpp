@@ -163,22 +163,20 @@ void add_bone_turn(float w, const Affine3x4& m, float* j) {
 }  // namespace
 
 SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
-                         const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<float>& point_sweep,
-                         const std::vector<float>& point_bone) {
+                         const std::vector<std::array<float, 4>>& rest_inverse) {
     const auto& inf = b.sweep_influences;
     const size_t n = inf.size();
     const int V = b.vertex_count();
     std::vector<float> row_blends(V, 0.0f);  // per vertex: its frame share (0: not blended)
     std::vector<uint8_t> blended(n, 0);
     for (int v = 0; v < V; ++v) {
-        // Blended as frames: a vertex with a sweep influence and two or more influences that
-        // join as frames; its frame share is their weight.
+        // Blended as frames: a vertex with a sweep influence and two or more influences; its
+        // frame share is their weight.
         int frames = 0;
         float share = 0.0f;
-        for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i)
-            if (point_sweep[i] < 1.0f) ++frames, share += (1.0f - point_sweep[i]) * inf[i].weight;
+        for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) ++frames, share += inf[i].weight;
         for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i)
-            if (point_bone[i] < 1.0f) ++frames, share += (1.0f - point_bone[i]) * b.bone_influences[i].weight;
+            ++frames, share += b.bone_influences[i].weight;
         const bool blends = frames > 1 && b.sweep_offsets[v + 1] > b.sweep_offsets[v];
         row_blends[v] = blends ? share : 0.0f;
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) blended[i] = blends;
@@ -234,31 +232,17 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     for (size_t i = 0; i < n; ++i) rows_[i] = slot_of[i];
     for (const BoneInfluence& in : b.bone_influences) bone_count_ = std::max(bone_count_, in.bone + 1);
     // Two lists of vertices, so neither loop branches on the kind: a blended vertex's
-    // influences as one run of entries grouped by how they join (frames first).
+    // influences as one run of entries, its sweeps' slots first, then its bones.
     for (int v = 0; v < V; ++v) {
         if (!(row_blends[v] > 0.0f)) {
             plain_vertices_.push_back(v);
             continue;
         }
-        BlendedVertex row{v, static_cast<uint32_t>(blend_entries_.size()), row_blends[v], {0, 0, 0, 0}};
-        for (int kind = 0; kind < 4; ++kind) {
-            const bool sweep = kind < 2, point = kind % 2 == 1;
-            const uint32_t first = sweep ? b.sweep_offsets[v] : b.bone_offsets[v];
-            const uint32_t last = sweep ? b.sweep_offsets[v + 1] : b.bone_offsets[v + 1];
-            for (uint32_t i = first; i < last; ++i) {
-                // The part of the influence that joins this way (an influence may join partly
-                // as a frame and partly as a point: the armpit's web, point_influences).
-                const float as_point = sweep ? point_sweep[i] : point_bone[i];
-                const float part = point ? as_point : 1.0f - as_point;
-                if (!(part > 0.0f)) continue;
-                if (sweep)
-                    blend_entries_.push_back({slot_of[i], part});
-                else
-                    blend_entries_.push_back(
-                        {static_cast<uint32_t>(b.bone_influences[i].bone), part * b.bone_influences[i].weight});
-                ++row.count[kind];
-            }
-        }
+        BlendedVertex row{v, static_cast<uint32_t>(blend_entries_.size()), row_blends[v], {0, 0}};
+        for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i, ++row.count[0])
+            blend_entries_.push_back({slot_of[i], 1.0f});
+        for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i, ++row.count[1])
+            blend_entries_.push_back({static_cast<uint32_t>(b.bone_influences[i].bone), b.bone_influences[i].weight});
         blended_vertices_.push_back(row);
     }
     // Blocks of kVertexBlock vertices: where each starts in both lists.
@@ -413,33 +397,26 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                                {in(dual_x), in(dual_x + 1), in(dual_x + 2), in(dual_x + 3)},
                                {in(rest_x), in(rest_x + 1), in(rest_x + 2)},
                                in(share_plane),
-                               {in(point_x), in(point_x + 1), in(point_x + 2)},
+                               {in(position_x), in(position_x + 1), in(position_x + 2)},
                                in(norm2_plane),
                                {in(turn_x), in(turn_x + 1), in(turn_x + 2), in(turn_x + 3)}};
     const auto blended_block = [&](const int k0, const int k1) {
-        // 1. Each vertex's frames summed (FrameBlend) and its points added, into planes.
+        // 1. Each vertex's frames summed (FrameBlend), into planes.
         for (int k = k0; k != k1; ++k) {
             const BlendedVertex& row = blended_vertices_[k];
             const float* x = rest + 3 * static_cast<size_t>(row.vertex);
-            const BlendEntry* const frame_slots = blend_entries_.data() + row.first;
-            const BlendEntry* const point_slots = frame_slots + row.count[0];
-            const BlendEntry* const frame_bones = point_slots + row.count[1];
-            const BlendEntry* const point_bones = frame_bones + row.count[2];
-            const BlendEntry* const end = point_bones + row.count[3];
-            Float4 p = {0.0f, 0.0f, 0.0f, 0.0f};
+            const BlendEntry* const first_slot = blend_entries_.data() + row.first;
+            const BlendEntry* const bones_first = first_slot + row.count[0];
+            const BlendEntry* const end = bones_first + row.count[1];
             float* j = needs_j(row.vertex) ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
             if (j)
                 for (int c = 0; c < 9; ++c) j[c] = 0.0f;
             FrameBlend blend;
-            for (const BlendEntry* f = frame_slots; f != point_slots; ++f) {
+            for (const BlendEntry* f = first_slot; f != bones_first; ++f) {
                 const float* o = &frames_[8 * static_cast<size_t>(f->index)];
                 blend.add_weighted(f->weight * load4(o), f->weight * load4(o + 4));
             }
-            for (const BlendEntry* f = point_slots; f != frame_bones; ++f) {
-                p += f->weight * load4(p4 + 4 * static_cast<size_t>(f->index));
-                if (j) add_slot_turn(f->weight, &turns_[9 * static_cast<size_t>(f->index)], j);
-            }
-            for (const BlendEntry* f = frame_bones; f != point_bones; ++f) {
+            for (const BlendEntry* f = bones_first; f != end; ++f) {
                 const BoneFrame& bf = bone_frames[f->index];
                 if (bf.rigid) {
                     blend.add_bone(f->weight, bf, x);
@@ -450,18 +427,11 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                     blend.add(f->weight, bf.q, t);
                 }
             }
-            float points[3] = {0.0f, 0.0f, 0.0f};
-            for (const BlendEntry* f = point_bones; f != end; ++f) {
-                bones[f->index].apply_add(f->weight, x, points);
-                if (j) add_bone_turn(f->weight, bones[f->index], j);
-            }
-            p += load3(points);
             const Float4 real = blend.real(), dual = blend.dual();
             for (int c = 0; c < 4; ++c) {
                 plane[(real_x + c) * count + k] = real[c];
                 plane[(dual_x + c) * count + k] = dual[c];
             }
-            for (int c = 0; c < 3; ++c) plane[(point_x + c) * count + k] = p[c];
         }
         // 2. The blended frames normalised and applied, four vertices at a time (this loop
         //    vectorises: the square roots and divisions were the scalar pass's long chain).
@@ -473,7 +443,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             float* j = needs_j(row.vertex) ? &blend_turns_[9 * static_cast<size_t>(k)] : nullptr;
             Float4 p;
             if (plane[norm2_plane * count + k] > 1e-12f) {
-                for (int c = 0; c < 3; ++c) p[c] = plane[(point_x + c) * count + k];
+                for (int c = 0; c < 3; ++c) p[c] = plane[(position_x + c) * count + k];
                 p[3] = 0.0f;
                 if (j) {
                     float q[4];
@@ -483,8 +453,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             } else {  // the frames cancel: the convex combination of every influence
                 const float* x = rest + 3 * static_cast<size_t>(v);
                 const BlendEntry* const first = blend_entries_.data() + row.first;
-                const BlendEntry* const bones_first = first + row.count[0] + row.count[1];
-                const BlendEntry* const end = bones_first + row.count[2] + row.count[3];
+                const BlendEntry* const bones_first = first + row.count[0];
+                const BlendEntry* const end = bones_first + row.count[1];
                 p = Float4{0.0f, 0.0f, 0.0f, 0.0f};
                 if (j)
                     for (int c = 0; c < 9; ++c) j[c] = 0.0f;

@@ -34,17 +34,13 @@ public:
     /// @param span_base  first span of each sweep in the frame's half-span array (which holds
     ///                   2 entries per span: halves u < 0.5 and u >= 0.5)
     /// @param rest_inverse  per sweep influence (the binding's order): Q_rest(u)^-1, x y z w
-    /// @param point_sweep, point_bone  per sweep / bone influence (the binding's order): the
-    ///                      share of its weight that joins the vertex as a point (convex
-    ///                      combination) rather than as a frame, in [0, 1]
     SweepKernel(const Binding& binding, const std::vector<int>& span_base,
-                const std::vector<std::array<float, 4>>& rest_inverse, const std::vector<float>& point_sweep,
-                const std::vector<float>& point_bone);
+                const std::vector<std::array<float, 4>>& rest_inverse);
 
     /// What run() gives besides the positions: each vertex's local linear map J (blended as
     /// its position was: Σ w R(u) R_rest(u)^-1 over its sweeps, Σ w M_b (3x3) over its bones,
-    /// and for a frame-blended vertex the blended rotation with its share plus the influences
-    /// that join as points), written out, or applied to a displacement per vertex.
+    /// and for a frame-blended vertex the blended rotation with its share), written out, or
+    /// applied to a displacement per vertex.
     struct LocalMaps {
         float* jacobians = nullptr;            // 3 blocks of #V*3 (block r: row r of every vertex's J)
         int32_t moved_count = 0;               // displaced vertices: M (distinct, in [0, V))
@@ -81,23 +77,23 @@ private:
         uint32_t index;
         float weight;  ///< a bone's weight; for a sweep's slot, the part of its own weight
     };
-    /// A frame-blended vertex: its entries from `first`, counted by kind in this order: sweep
-    /// frames, sweep points, bone frames, bone points.
+    /// A frame-blended vertex: its entries from `first`, its sweeps' slots (count[0]), then
+    /// its bones (count[1]).
     struct BlendedVertex {
         int32_t vertex;
         uint32_t first;
         float share;
-        uint16_t count[4];
+        uint16_t count[2];
     };
     std::vector<BlendedVertex> blended_vertices_;
     std::vector<BlendEntry> blend_entries_;
     std::vector<int32_t> block_plain_, block_blended_;  // per block of vertices: its first in each list
     /// Planes (one float per frame-blended vertex each) of blend_planes_: the frames' sums and
-    /// the point part written per frame, the rest position and share constant.
+    /// the blended position written per frame, the rest position and share constant.
     enum BlendPlane : int {
         real_x = 0,
         dual_x = 4,
-        point_x = 8,
+        position_x = 8,
         rest_x = 11,
         share_plane = 14,
         norm2_plane = 15,
