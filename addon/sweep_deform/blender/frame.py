@@ -333,20 +333,21 @@ def fall_back_to_offsets(obj, md=None, depsgraph=None):
     in Edit Mode and a paint mode, and with a modifier before Sweep Deform. Returns True if the
     mesh carrier was in use."""
     md = md or modifier.find(obj)
-    if modifier.mesh_carrier_in_use(obj, md) is None:
-        return False
-    e = deformer_cache.peek(obj)
-    if e is None:
-        return _fall_back(obj, md, None, depsgraph)
-    with e.lock:  # (a render thread may be evaluating the same entry: see evaluate())
-        return _fall_back(obj, md, e, depsgraph)
-
-
-def _fall_back(obj, md, e, depsgraph):
-    """fall_back_to_offsets with the object's cache entry `e` held (None: no entry in memory)."""
     c = modifier.mesh_carrier_in_use(obj, md)
     if c is None:
         return False
+    e = deformer_cache.peek(obj)
+    if e is None:
+        _fall_back(obj, md, c, None, depsgraph)
+    else:
+        with e.lock:  # (a render thread may be evaluating the same entry: see evaluate())
+            _fall_back(obj, md, c, e, depsgraph)
+    return True
+
+
+def _fall_back(obj, md, c, e, depsgraph):
+    """fall_back_to_offsets for the mesh carrier `c` in use, with the object's cache entry `e`
+    held (None: no entry in memory). Carriers are emptied on the main thread only, as here."""
     n = len(c.data.vertices)
     offsets = np.empty(3 * n, np.float32)
     c.data.attributes['position'].data.foreach_get('vector', offsets)
@@ -368,4 +369,3 @@ def _fall_back(obj, md, e, depsgraph):
     if e is not None:
         e.written.pop(c.name, None)
     modifier.empty_mesh_carrier(obj, md)
-    return True

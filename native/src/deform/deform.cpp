@@ -18,15 +18,13 @@
 
 namespace sd {
 
-namespace {
-
-/// Length of sweep along its normals over one span: the chord times the mean of <N, T> at
-/// both ends (the volume's density per unit area, Sect. 4.4, integrated coarsely).
 double span_thickness(const SweepGeometry& g, int span) {
     const double tilt = 0.5 * (glm::dot(g.normal(span, 0.0), g.tangent(span, 0.0)) +
                                glm::dot(g.normal(span, 1.0), g.tangent(span, 1.0)));
     return g.span_length(span) * std::max(tilt, 0.0);
 }
+
+namespace {
 
 using Quat = std::array<float, 4>;  // x, y, z, w
 
@@ -236,9 +234,8 @@ bool restore_local_volume(const Sweep& s, const SweepGeometry& posed, double str
     // (0.3) it kept more of the volume but left a faint band where the belt was; wider (0.6, 1)
     // left the same band and lost more volume.
     constexpr double kSpread = 0.43;
-    std::vector<double> along(K, 0.0), length(K, 0.0);
-    for (int k = 1; k < K; ++k)
-        along[k] = along[k - 1] + glm::length(key_center(s.rest_geometry, k) - key_center(s.rest_geometry, k - 1));
+    const std::vector<double>& along = s.rest_geometry.knots();  // rest arc length (chord) at each key
+    std::vector<double> length(K);
     for (int k = 0; k < K; ++k) length[k] = 0.5 * (along[std::min(k + 1, K - 1)] - along[std::max(k - 1, 0)]);
     const double spread = kSpread * along[K - 1];
     // The share of the growth given to the inside of the bend, the outside held in place; the

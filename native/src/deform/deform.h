@@ -15,6 +15,11 @@
 
 namespace sd {
 
+/// Length of a sweep along its normals over one span: the chord times the mean of <N, T> at
+/// both ends (the volume's density per unit area, Sect. 4.4, integrated coarsely): what
+/// restore_local_volume compares with the rest sweep's.
+double span_thickness(const SweepGeometry& g, int span);
+
 /// Thick chains (Sweep::bends_smoothly) in `posed` with half-axes a, b: the share of their
 /// restored volume that may go to the inside of the bend, 1 while the sweep bends gently for
 /// its depth, falling to 0 where it bends so sharply that its planes close in on its inside

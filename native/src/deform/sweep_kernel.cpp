@@ -240,7 +240,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         }
         BlendedVertex row{v, static_cast<uint32_t>(blend_entries_.size()), row_blends[v], {0, 0}};
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i, ++row.count[0])
-            blend_entries_.push_back({slot_of[i], 1.0f});
+            blend_entries_.push_back({slot_of[i], 1.0f});  // (its weight is in the slot)
         for (uint32_t i = b.bone_offsets[v]; i < b.bone_offsets[v + 1]; ++i, ++row.count[1])
             blend_entries_.push_back({static_cast<uint32_t>(b.bone_influences[i].bone), b.bone_influences[i].weight});
         blended_vertices_.push_back(row);
@@ -414,7 +414,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             FrameBlend blend;
             for (const BlendEntry* f = first_slot; f != bones_first; ++f) {
                 const float* o = &frames_[8 * static_cast<size_t>(f->index)];
-                blend.add_weighted(f->weight * load4(o), f->weight * load4(o + 4));
+                blend.add_weighted(load4(o), load4(o + 4));  // w q, ½ w t q
             }
             for (const BlendEntry* f = bones_first; f != end; ++f) {
                 const BoneFrame& bf = bone_frames[f->index];
@@ -459,8 +459,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 if (j)
                     for (int c = 0; c < 9; ++c) j[c] = 0.0f;
                 for (const BlendEntry* f = first; f != bones_first; ++f) {
-                    p += f->weight * load4(p4 + 4 * static_cast<size_t>(f->index));
-                    if (j) add_slot_turn(f->weight, &turns_[9 * static_cast<size_t>(f->index)], j);
+                    p += load4(p4 + 4 * static_cast<size_t>(f->index));
+                    if (j) add_slot_turn(1.0f, &turns_[9 * static_cast<size_t>(f->index)], j);
                 }
                 float all[3] = {0.0f, 0.0f, 0.0f};
                 for (const BlendEntry* f = bones_first; f != end; ++f) {

@@ -75,7 +75,7 @@ private:
     /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.
     struct BlendEntry {
         uint32_t index;
-        float weight;  ///< a bone's weight; for a sweep's slot, the part of its own weight
+        float weight;  ///< a bone's weight; 1 for a sweep's slot, which holds its own weight
     };
     /// A frame-blended vertex: its entries from `first`, its sweeps' slots (count[0]), then
     /// its bones (count[1]).

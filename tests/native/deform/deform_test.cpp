@@ -146,16 +146,10 @@ TEST(Deform, LocalRestorationSpreadsTheLossAlongTheSweep) {
         grown[k] = std::log(a[k] * b[k] / (s.rest_half_axes.a[k] * s.rest_half_axes.b[k]));
     const int elbow = 3;
     for (int k : {0, s.key_count() - 1}) EXPECT_GT(grown[k], grown[elbow] / 3.0) << "key " << k;
-    // the elbow's own spans, as restore_local_volume measures them (length times tilt)
+    // the elbow's own spans, as restore_local_volume measures them
     double own = 0.0;
-    for (int span : {elbow - 1, elbow}) {
-        auto thickness = [span](const SweepGeometry& g) {
-            const double tilt = 0.5 * (glm::dot(g.normal(span, 0.0), g.tangent(span, 0.0)) +
-                                       glm::dot(g.normal(span, 1.0), g.tangent(span, 1.0)));
-            return g.span_length(span) * tilt;
-        };
-        own += 0.5 * thickness(s.rest_geometry) / thickness(posed);
-    }
+    for (int span : {elbow - 1, elbow})
+        own += 0.5 * span_thickness(s.rest_geometry, span) / span_thickness(posed, span);
     EXPECT_LT(grown[elbow], 0.8 * std::log(own));
 }
 
