@@ -13,7 +13,7 @@
   undo (see deformer_cache.py).
 * Key-ellipse corrections (Sect. 4.2) are properties of ``Object.sweep_deform`` (saved and
   undone like any property); when the file is saved, the rig blob gets a copy of them
-  (format version 2), so the blob alone describes the edited rig for other tools.
+  (format version 2 and on), so the blob alone describes the edited rig for other tools.
 """
 
 import bpy

@@ -167,10 +167,10 @@ void put_corrections(Writer& w, const Rig& rig) {
         }
 }
 
-void get_corrections(Reader& r, Rig& rig) {
+std::vector<CorrectionRecord> get_corrections(Reader& r, const std::vector<std::vector<KeyEllipse>>& sweeps) {
     std::vector<CorrectionRecord> records;
-    for (size_t s = 0; s < rig.sweeps.size(); ++s)
-        for (int k = 0; k < rig.sweeps[s].key_count(); ++k) {
+    for (size_t s = 0; s < sweeps.size(); ++s)
+        for (int k = 0; k < static_cast<int>(sweeps[s].size()); ++k) {
             const int32_t n = r.get<int32_t>();
             if (n < 0 || n > kMaxCorrectionsPerKey) throw CorruptData("rig blob has an invalid correction count");
             for (int i = 0; i < n; ++i) {
@@ -189,7 +189,18 @@ void get_corrections(Reader& r, Rig& rig) {
                 records.push_back(rec);
             }
         }
-    rig.set_corrections(records);
+    return records;
+}
+
+/// Version 3 appends, per sweep and key, its twist spread (double).
+void put_twist_spreads(Writer& w, const Rig& rig) {
+    for (const Sweep& sw : rig.sweeps)
+        for (const KeyEllipse& k : sw.keys) w.put(k.twist_spread);
+}
+
+void get_twist_spreads(Reader& r, std::vector<std::vector<KeyEllipse>>& sweeps) {
+    for (std::vector<KeyEllipse>& keys : sweeps)
+        for (KeyEllipse& k : keys) k.twist_spread = r.get<double>();  // validated by add_sweep
 }
 
 constexpr char kRigMagic[4] = {'S', 'D', 'R', 'G'};
@@ -201,6 +212,7 @@ std::vector<uint8_t> serialize_rig(const Rig& rig) {
     Writer w;
     w.bytes = rig_payload(rig);
     put_corrections(w, rig);
+    put_twist_spreads(w, rig);
     return frame(kRigMagic, kRigFormatVersion, w.bytes);
 }
 
@@ -228,10 +240,11 @@ Rig deserialize_rig(const uint8_t* data, size_t size) {
     rig.skeleton = Skeleton::build(std::move(parents), std::move(rest), std::move(heads), std::move(tails));
     const int32_t S = r.get<int32_t>();
     if (S < 0 || S > 1024) throw CorruptData("rig blob has an invalid sweep count");
-    for (int s = 0; s < S; ++s) {
+    std::vector<std::vector<KeyEllipse>> sweeps(S);
+    for (std::vector<KeyEllipse>& keys : sweeps) {
         const int32_t K = r.get<int32_t>();
         if (K < 2 || K > 256) throw CorruptData("rig blob has an invalid key count");
-        std::vector<KeyEllipse> keys(K);
+        keys.resize(K);
         for (KeyEllipse& k : keys) {
             k.center = r.get_glm<dvec3>();
             k.orientation = r.get_glm<dquat>();
@@ -242,10 +255,13 @@ Rig deserialize_rig(const uint8_t* data, size_t size) {
             k.swing_fraction = r.get<double>();
             k.twist_fraction = r.get<double>();
         }
-        rig.add_sweep(std::move(keys));
     }
-    if (version >= 2) get_corrections(r, rig);
+    std::vector<CorrectionRecord> corrections;
+    if (version >= 2) corrections = get_corrections(r, sweeps);
+    if (version >= 3) get_twist_spreads(r, sweeps);
     if (r.left() != 0) throw CorruptData("rig blob has trailing bytes");
+    for (std::vector<KeyEllipse>& keys : sweeps) rig.add_sweep(std::move(keys));
+    if (version >= 2) rig.set_corrections(corrections);
     return rig;
 }
 

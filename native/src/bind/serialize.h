@@ -14,8 +14,9 @@
 namespace sd {
 
 /// Rig blobs: version 2 adds the key-ellipse corrections (Sect. 4.2) after the version 1
-/// payload; version 1 blobs are still read (as rigs without corrections).
-constexpr uint32_t kRigFormatVersion = 2;
+/// payload, version 3 the keys' twist spreads after them; version 1 blobs are still read (as
+/// rigs without corrections), versions 1 and 2 with the default twist spread.
+constexpr uint32_t kRigFormatVersion = 3;
 constexpr uint32_t kBindingFormatVersion = 1;
 
 std::vector<uint8_t> serialize_rig(const Rig& rig);

@@ -2,6 +2,7 @@
 
 #include "geometry/cross_section.h"
 #include "fit/ellipse_fit.h"
+#include "fit/twist_spread.h"
 #include "rig/rig.h"
 
 #include <tbb/parallel_for.h>
@@ -433,6 +434,15 @@ ChainFit fit_chain(const FitMesh& mesh, const Skeleton& s, const ChainSet& set, 
         KeyReport& r = out.reports[k];
         r.center = e.center;
         r.first_axis = first;
+    }
+    // A wrist's, ankle's or head's twist spreads along the last link as fast as its rings allow.
+    const KeySpec& last = specs[K - 1];
+    if (last.twist == 1.0 && last.joint_parent >= 0) {
+        const double rings = rings_along(mesh, shares, chain_index, s.heads[last.joint_parent], last.point);
+        out.keys.back().twist_spread = twist_spread_for(rings);
+        if (rings > 0.0)
+            out.reports[K - 1].notes.push_back("twist spread " + fmt(out.keys.back().twist_spread) + " (" + fmt(rings) +
+                                               " rings along the link)");
     }
     std::string error = finish_keys(s, out.keys, out.notes);
     if (!error.empty()) {

@@ -32,6 +32,9 @@ struct KeyCorrectionValue {
     }
 };
 
+/// The twist spread of a rig that does not say (the ABI's keys, blobs before version 3).
+constexpr double kDefaultTwistSpread = 2.0;
+
 struct KeyEllipse {
     dvec3 center{0.0};              ///< rest-pose center, armature space
     dquat orientation{1, 0, 0, 0};  ///< columns of its matrix: major axis, minor axis, normal
@@ -40,6 +43,10 @@ struct KeyEllipse {
     int joint_parent = -1;          ///< the upper link of its joint; -1 for an intermediate key
     double swing_fraction = 0.5;    ///< joint keys: share of the joint's swing the key takes
     double twist_fraction = 0.5;    ///< joint keys: share of the twist about its normal
+    /// End keys that twist (wrist, ankle, head): how their twist spreads back along the last
+    /// link, whose keys take place^twist_spread of it (key_motion.cpp), in [1, 2]. The
+    /// fitting lowers it from 2 on a mesh with few rings there (fit/twist_spread.h).
+    double twist_spread = kDefaultTwistSpread;
     /// Pose-space corrections (Sect. 4.2), sorted by angle, at most one per angle.
     std::vector<KeyCorrection> corrections;
 

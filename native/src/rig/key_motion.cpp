@@ -127,11 +127,13 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
             // move. In proportion to the place, the elbow end's bulk turned a third of the
             // wrist's turn and the twisted forearm was lumpy from behind; MakeHuman's skin
             // there 1.028x its rest distance from the bone at 180 degrees, now 1.011
-            // (Preserve Volume 1.029).
+            // (Preserve Volume 1.029). On a mesh with few rings along the link the end key's
+            // twist_spread lowers the power towards 1 (fit/twist_spread.h): there the square
+            // put most of the turn into the last ring or two before the wrist.
             const KeyEllipse& j = keys[after[k]];
             const Link& link = links[k];
             const double along = link.fraction_of(e.center);
-            m.twist_share = along * along * j.twist_fraction;
+            m.twist_share = std::pow(along, j.twist_spread) * j.twist_fraction;
             if (m.twist_share > 0.0) {  // else rigid with its own bone
                 m.to_bone = j.bone;
                 const dvec3 d = link.end - link.start;

@@ -175,6 +175,8 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
                                " is out of range or equals its bone");
         for (double f : {e.swing_fraction, e.twist_fraction})
             if (!(f >= 0.0 && f <= 1.0)) throw InvalidInput(key_name(k) + ": swing/twist fractions must be in [0, 1]");
+        if (!(e.twist_spread >= 1.0 && e.twist_spread <= 2.0))
+            throw InvalidInput(key_name(k) + ": the twist spread must be in [1, 2]");
         centers.push_back(e.center);
         rotations.push_back(e.orientation);
         is_joint.push_back(e.is_joint_key());

@@ -1,7 +1,7 @@
 // Key-ellipse editing (Sect. 4.2) on the synthetic arm: the joint angle of every key, the
 // interpolation of corrections over it (rest pinned, monotone, clamped), the deformation
 // changing only near the edited key and the edit's angle, volume control keeping a scaling
-// edit, rest corrections, blobs of format version 2 (and reading version 1), and the C ABI.
+// edit, rest corrections, blobs of format version 3 (and reading versions 1 and 2), and the C ABI.
 #include "rig/key_pose.h"
 #include "bind/serialize.h"
 #include "sweepdeform/sweepdeform.h"
@@ -17,6 +17,23 @@ namespace sd {
 namespace {
 
 const double k150 = glm::radians(150.0);
+
+/// `blob` framed as format `version` without the last `dropped` bytes of its payload (the
+/// sections that version does not have).
+std::vector<uint8_t> older_rig_blob(const std::vector<uint8_t>& blob, uint32_t version, size_t dropped) {
+    std::vector<uint8_t> out(blob.begin(), blob.begin() + 16);
+    uint64_t size;
+    std::memcpy(&size, &blob[8], 8);
+    const uint64_t payload = size - dropped;
+    std::vector<uint8_t> body(blob.begin() + 16, blob.begin() + 16 + static_cast<long>(payload));
+    const uint32_t crc = crc32(body.data(), body.size());
+    std::memcpy(&out[4], &version, 4);
+    std::memcpy(&out[8], &payload, 8);
+    out.insert(out.end(), body.begin(), body.end());
+    const auto* c = reinterpret_cast<const uint8_t*>(&crc);
+    out.insert(out.end(), c, c + 4);
+    return out;
+}
 
 double max_distance(const std::vector<float>& a, const std::vector<float>& b, double x_min = -1e9, double x_max = 1e9,
                     const std::vector<float>* rest = nullptr) {
@@ -266,25 +283,42 @@ TEST(KeyEdit, BlobsKeepCorrectionsButNotInTheFingerprint) {
     EXPECT_NO_THROW(Deformer(back, test::Arm().bind()));
 
     // Version 1 (the payload without the corrections section): still read, no corrections.
-    std::vector<uint8_t> v1(v1_like.begin(), v1_like.begin() + 16);
-    uint64_t size;
-    std::memcpy(&size, &v1_like[8], 8);
     const size_t K = 7;
-    const uint64_t payload = size - 4 * K;  // one int32 0 per key ellipse
-    std::vector<uint8_t> body(v1_like.begin() + 16, v1_like.begin() + 16 + static_cast<long>(payload));
-    const uint32_t version = 1, crc = crc32(body.data(), body.size());
-    std::memcpy(&v1[4], &version, 4);
-    std::memcpy(&v1[8], &payload, 8);
-    v1.insert(v1.end(), body.begin(), body.end());
-    const auto* c = reinterpret_cast<const uint8_t*>(&crc);
-    v1.insert(v1.end(), c, c + 4);
+    // one int32 0 per key ellipse (no corrections), one double per key (the twist spreads)
+    const std::vector<uint8_t> v1 = older_rig_blob(v1_like, 1, (4 + 8) * K);
     const Rig old = deserialize_rig(v1.data(), v1.size());
     EXPECT_TRUE(old.corrections().empty());
     EXPECT_EQ(rig_fingerprint(old), plain);
-    // A version 3 blob is refused.
-    std::vector<uint8_t> v3 = blob;
-    v3[4] = 3;
-    EXPECT_THROW(deserialize_rig(v3.data(), v3.size()), CorruptData);
+    // A version 4 blob is refused.
+    std::vector<uint8_t> v4 = blob;
+    v4[4] = 4;
+    EXPECT_THROW(deserialize_rig(v4.data(), v4.size()), CorruptData);
+}
+
+TEST(KeyEdit, BlobsKeepTheTwistSpreadButNotInTheFingerprint) {
+    // Version 3 keeps each key's twist spread (the fitting's, from the mesh's rings); a
+    // version 2 blob, which has none, reads with the default, and the spread leaves the
+    // binding's fingerprint alone (the rest pose does not depend on it).
+    const test::Arm arm;
+    std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
+    keys.back().twist_spread = 1.25;
+    Rig rig;
+    rig.skeleton = arm.rig.skeleton;
+    rig.add_sweep(keys);
+    EXPECT_EQ(rig_fingerprint(rig), rig_fingerprint(arm.rig));
+    const auto blob = serialize_rig(rig);
+    const Rig back = deserialize_rig(blob.data(), blob.size());
+    EXPECT_EQ(back.sweeps[0].keys.back().twist_spread, 1.25);
+    EXPECT_EQ(serialize_rig(back), blob);
+    const std::vector<uint8_t> v2 = older_rig_blob(blob, 2, 8 * keys.size());
+    const Rig old = deserialize_rig(v2.data(), v2.size());
+    EXPECT_EQ(old.sweeps[0].keys.back().twist_spread, kDefaultTwistSpread);
+    EXPECT_EQ(serialize_rig(old), serialize_rig(arm.rig));
+    // Out of [1, 2]: refused like any other bad key.
+    for (double bad : {0.5, 2.5, std::nan("")}) {
+        keys.back().twist_spread = bad;
+        EXPECT_THROW(rig.add_sweep(keys), InvalidInput) << bad;
+    }
 }
 
 // ---- the C ABI --------------------------------------------------------------------------
