@@ -107,6 +107,9 @@ SD_API sd_status sd_rig_clone(const sd_rig* rig, sd_rig** out_rig);
  *                      of the child's swing and twist relative to the parent (0.5, 0.5 bisects
  *                      the joint); ignored for intermediate keys
  * Key centers must be distinct (chord length > 0). out_sweep_index may be NULL.
+ * The last link's keys take the end key's twist as the square of their place along the link
+ * (the twist spread 2; the automatic fitting lowers it towards 1 on a mesh with few rings of
+ * vertices there, and a rig blob since format version 3 keeps it).
  */
 SD_API sd_status sd_rig_add_sweep(sd_rig* rig, int32_t key_count, const float* centers, const float* orientations,
                                   const float* half_axes, const int32_t* bones, const int32_t* joint_parents,
@@ -565,8 +568,8 @@ SD_API sd_status sd_anatomy_count_intersections(sd_anatomy* anatomy, int32_t ver
  * correction lies at a rest angle: then it is the volume of the rest pose with those
  * corrections' offsets and rotations.
  *
- * Corrections are part of the rig and of its blob (format version 2; version 1 blobs still
- * load), but not of its fingerprint: a binding made before an edit stays valid. A deformer
+ * Corrections are part of the rig and of its blob (format version 2 and on; version 1 blobs
+ * still load), but not of its fingerprint: a binding made before an edit stays valid. A deformer
  * copies the rig: give it the edited corrections with sd_deformer_set_rig_corrections (or
  * create it again). Correction lists are sorted by angle; indices refer to that order.
  */
