@@ -3,7 +3,7 @@
 // A forearm turns as the square of the place along it (key_motion.cpp): the muscle bellies
 // at the elbow hardly move while the wrist turns. On a dense mesh that looks right; on a game
 // mesh with four or five rings of vertices along the forearm the square puts 36-44 % of the
-// hand's turn between the last two rings, whose quads then twist flat across their diagonals
+// hand's turn into the last gap between rings, whose quads then twist flat across their diagonals
 // (the 2.9K MakeHuman body's forearm section 0.54 of rest at 180 degrees, Preserve Volume's
 // 0.63; spread in proportion to the place, 0.77). The fitting measures the rings and lowers
 // the power towards 1 until the last gap before the wrist takes at most a sixth of the twist,
@@ -25,8 +25,8 @@ constexpr double kLastRingGapShare = 1.0 / 6.0;
 double rings_along(const FitMesh& mesh, const PartShares& shares, int chain, const dvec3& start, const dvec3& end);
 
 /// The end key's twist spread for a link with `rings` rings (KeyEllipse::twist_spread): the
-/// largest power p in [1, 2] with 1 - (1 - 1/rings)^p <= kLastRingGapShare; 2 when rings is
-/// 0 (not measured).
+/// largest power p in [1, 2] with 1 - (1 - 1/rings)^p <= kLastRingGapShare, 1 when none is (6
+/// rings or fewer: the place itself spreads it most evenly); 2 when rings is 0 (not measured).
 double twist_spread_for(double rings);
 
 }  // namespace sd::fit
