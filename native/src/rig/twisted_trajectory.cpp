@@ -34,11 +34,11 @@ std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const S
     const int K = s.key_count(), S = posed.span_count();
     const SweepGeometry& rest = s.rest_geometry;  // the frames the binding was made in
     // Each key's posed turn R_k and posed center; the sweep twists if any key turns about an axis.
-    struct Turning {
+    struct PosedKey {
         dquat turn;
         dvec3 center;
     };
-    std::vector<Turning> keys(K);
+    std::vector<PosedKey> keys(K);
     bool twists = false;
     for (int k = 0; k < K; ++k) {
         keys[k].turn = glm::normalize(posed.key_rotations()[k] * glm::conjugate(rest.key_rotations()[k]));
