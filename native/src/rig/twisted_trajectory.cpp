@@ -33,17 +33,28 @@ CubicSpan cubic_through(const std::array<dvec3, 4>& y, double u0, double h) {
 std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const SweepGeometry& posed) {
     const int K = s.key_count(), S = posed.span_count();
     const SweepGeometry& rest = s.rest_geometry;  // the frames the binding was made in
-    // Each key's posed turn R_k and posed center; the sweep twists if any key turns about an axis.
+    // Each key's posed turn R_k and posed center, and the line it turns about (its axis through
+    // its posed pivot; none for a key that does not turn about an axis); the sweep twists if
+    // any key does.
     struct PosedKey {
         dquat turn;
         dvec3 center;
+        bool turns = false;
+        dvec3 axis{0.0}, pivot{0.0};
     };
     std::vector<PosedKey> keys(K);
     bool twists = false;
     for (int k = 0; k < K; ++k) {
-        keys[k].turn = glm::normalize(posed.key_rotations()[k] * glm::conjugate(rest.key_rotations()[k]));
-        keys[k].center = k < S ? posed.center(k, 0.0) : posed.center(S - 1, 1.0);
-        twists = twists || s.motions[k].twist_axis != dvec3(0.0);
+        PosedKey& key = keys[k];
+        const KeyMotion& m = s.motions[k];
+        key.turn = glm::normalize(posed.key_rotations()[k] * glm::conjugate(rest.key_rotations()[k]));
+        key.center = k < S ? posed.center(k, 0.0) : posed.center(S - 1, 1.0);
+        key.turns = m.twist_axis != dvec3(0.0);
+        if (key.turns) {
+            key.axis = glm::normalize(key.turn * m.twist_axis);
+            key.pivot = key.center - key.turn * (s.keys[k].center - m.pivot);
+        }
+        twists = twists || key.turns;
     }
     if (!twists) return {};
     // The last link's spans (their intermediate key twists about the link) turn every key's
@@ -58,11 +69,10 @@ std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const S
     std::vector<char> on_line(S, 0);
     for (int span = 0; span < S; ++span) {
         const int c = s.keys[span + 1].is_joint_key() ? span : span + 1;
-        const KeyMotion& m = s.motions[c];
-        if (s.keys[c].is_joint_key() || !m.turns_about_pivot) continue;
+        if (s.keys[c].is_joint_key() || !s.motions[c].turns_about_pivot) continue;
         on_line[span] = 1;
-        line_axis[span] = glm::normalize(keys[c].turn * m.twist_axis);
-        line_point[span] = keys[c].center - keys[c].turn * (s.keys[c].center - m.pivot);
+        line_axis[span] = keys[c].axis;
+        line_point[span] = keys[c].pivot;
     }
     // The cardinal functions φ_k on the posed knots, three keys a spline (one per coordinate):
     // phi[(span * K + k) * 4 + i], power form in the span's u.
@@ -84,16 +94,13 @@ std::vector<std::array<CubicSpan, 2>> twisted_trajectory(const Sweep& s, const S
         const dvec3 fv(f.x, f.y, f.z);
         dvec3 e(0.0);
         for (int k = 0; k < K; ++k) {
-            const KeyMotion& mk = s.motions[k];
-            if (!on_line[span] && mk.twist_axis == dvec3(0.0)) continue;
+            if (!on_line[span] && !keys[k].turns) continue;
             const double* c3 = &phi[(static_cast<size_t>(span) * K + k) * 4];
             const double weight = c3[0] + u * (c3[1] + u * (c3[2] + u * c3[3]));
             if (weight == 0.0) continue;
-            // The line the key's term turns about: the span's, or the key's own (its axis
-            // through its posed pivot).
-            const dvec3 a = on_line[span] ? line_axis[span] : glm::normalize(keys[k].turn * mk.twist_axis);
-            const dvec3 point =
-                on_line[span] ? line_point[span] : keys[k].center - keys[k].turn * (s.keys[k].center - mk.pivot);
+            // The line the key's term turns about: the span's, or the key's own.
+            const dvec3& a = on_line[span] ? line_axis[span] : keys[k].axis;
+            const dvec3& point = on_line[span] ? line_point[span] : keys[k].pivot;
             // Δ = f conj(R_k): w = f . R_k, and Δ's vector part along a is
             // R_k.w (f_v . a) - f.w (R_k,v . a) - f_v . (R_k,v x a).
             const dquat& r = keys[k].turn;
