@@ -42,6 +42,18 @@ def test_offsets_in_mesh_space():
                                rtol=1e-6)
 
 
+def test_add_to_rows_adds_to_those_rows_alone():
+    a = np.arange(18, dtype=np.float32).reshape(6, 3)
+    rows = np.array([1, 4], np.int32)
+    values = np.array([[10, 20, 30], [-1, -2, -3]], np.float32)
+    expected = a.copy()
+    expected[rows] += values
+    arrays.add_to_rows(a, arrays.flat_rows(rows), values)
+    np.testing.assert_array_equal(a, expected)
+    with pytest.raises(ValueError):  # a strided view would be added to as a copy
+        arrays.add_to_rows(np.zeros((6, 6), np.float32)[:, :3], arrays.flat_rows(rows), values)
+
+
 def test_pack_frames_in_mesh_space():
     """The rows of J - I in mesh space, in place: a mesh-space move d maps to L^-1 J L d
     (L: mesh -> armature)."""

@@ -37,6 +37,8 @@ class Entry:
         self._packed = None
         self._mesh_rest = self._shape_key_buffers = self._moves_last = None
         self.moves_seen = 0  # changes of the shape keys' displacements (moving)
+        self.moved_flat = None  # arrays.flat_rows of the vertices they move
+        self._moves_mix = None  # the shape key buffers' mix count moving() saw last
         self.render_carrier_for = None  # (modifier, point count) the render carrier was made for
         # The mesh carrier (modifier.py): the mesh it copies, whether that changed since, the
         # deformed positions' buffer and the keys' displacements last added to them.
@@ -197,15 +199,20 @@ class Entry:
             self._shape_key_buffers = shape_keys.ShapeKeyBuffers(self.deformer.vertex_count)
         return self._shape_key_buffers
 
-    def moving(self, moved, rows):
+    def moving(self, moved, rows, mix=None):
         """(moved, rows): the vertices the keys move and their displacements, or None when none
         moves; self.moves_seen counts the changes (a key's value or shape), so that the frame's
-        key sees them."""
+        key sees them. `mix`: the shape key buffers' mix count when they hold (moved, rows);
+        the same as last time, they hold what they held then and are not compared again."""
         if moved.size == 0:
             return None
         last = self._moves_last
+        if last is not None and mix is not None and mix == self._moves_mix:
+            return moved, rows
+        self._moves_mix = mix
         if last is None or not (np.array_equal(moved, last[0]) and np.array_equal(rows, last[1])):
             self._moves_last = (moved.copy(), rows.copy())
+            self.moved_flat = arrays.flat_rows(moved)
             self.moves_seen += 1
         return moved, rows
 

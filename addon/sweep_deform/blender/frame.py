@@ -225,7 +225,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         mixed = shape_keys.displacements(obj, depsgraph, e.mesh_rest(obj), e.shape_key_buffers())
         if mixed is not None:
             with_frames = False
-            moves = e.moving(*mixed)  # None when no key moves anything
+            moves = e.moving(*mixed, mix=e.shape_key_buffers().mixes)  # None when no key moves anything
     key = (pose.tobytes(), tuple(linear.col[0]) + tuple(linear.col[1]) + tuple(linear.col[2]), settings,
            corrections_key, anatomy_key, with_frames, e.moves_seen if moves is not None else 0)
     # The object's own carriers (made here for a copy of a bound object, a library override or
@@ -301,7 +301,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         if len(moved) == len(offsets):
             offsets += change  # every vertex: no scatter
         else:
-            offsets[moved] += change
+            arrays.add_to_rows(offsets, e.moved_flat, change)
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets
         arrays.pack_frames(frames, linear, to_mesh)

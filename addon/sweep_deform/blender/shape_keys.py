@@ -73,6 +73,7 @@ def displacements(obj, depsgraph, rest, scratch):
         scratch.count = native.mix_shape_keys(rest, positions, np.array(terms, np.int32).reshape(-1, 2),
                                               np.array(values, np.float32), scratch.moved, scratch.moves)
         scratch.mixed = mix
+        scratch.mixes += 1
     return scratch.moved[:scratch.count], scratch.moves[:scratch.count]
 
 
@@ -88,6 +89,7 @@ class ShapeKeyBuffers:
         self.moves = np.empty((vertex_count, 3), np.float32)
         self.count = 0
         self.mixed = None
+        self.mixes = 0  # how many mixes were made into moved and moves (a new one: new content)
 
     def forget(self):
         self.mixed = None

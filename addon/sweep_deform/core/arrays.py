@@ -135,6 +135,22 @@ def offsets_into(deformed, rest, to_mesh, out, scratch):
     return scratch
 
 
+def flat_rows(rows):
+    """The flat indices of rows `rows` of an (N,3) array (the three coordinates of each),
+    for add_to_rows."""
+    return (3 * np.asarray(rows, dtype=np.intp)[:, None] + np.arange(3)).reshape(-1)
+
+
+def add_to_rows(a, flat, values):
+    """a[rows] += values for a C-contiguous (N,3) `a`, the rows given by flat_rows(rows):
+    indexing the flat buffer by coordinate is about three times as fast as by row (0.05
+    against 0.16 ms for a tenth of 75K vertices)."""
+    if not a.flags.c_contiguous:  # (reshape would add to a copy)
+        raise ValueError("add_to_rows needs a C-contiguous array")
+    view = a.reshape(-1)
+    view[flat] += values.reshape(-1)
+
+
 def pack_frames(frames, linear, to_mesh):
     """Turns the core's local linear maps, written in place as the carrier's blocks 1..3
     (`frames` (3,V,3): frames[r, v] row r of vertex v's J, armature space, acting on column

@@ -383,10 +383,22 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         }
     };
     const auto plain_block = [&](const int k0, const int k1) {
-        if (with_j)
-            plain_vertices(k0, k1, std::true_type{});
-        else
+        if (!with_j) {
             plain_vertices(k0, k1, std::false_type{});
+        } else if (jacobians) {
+            plain_vertices(k0, k1, std::true_type{});
+        } else {  // J for the displaced vertices alone: the others as a plain frame's, run by run
+            for (int k = k0; k != k1;) {
+                const bool moved = moved_at[plain_vertices_[k]] >= 0;
+                int end = k + 1;
+                while (end != k1 && (moved_at[plain_vertices_[end]] >= 0) == moved) ++end;
+                if (moved)
+                    plain_vertices(k, end, std::true_type{});
+                else
+                    plain_vertices(k, end, std::false_type{});
+                k = end;
+            }
+        }
     };
     const int blended_count = static_cast<int>(blended_vertices_.size());
     const size_t count = static_cast<size_t>(blended_count);
