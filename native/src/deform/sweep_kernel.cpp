@@ -191,9 +191,14 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
                      [&](uint32_t a, uint32_t c) { return blended[a] != blended[c] ? blended[c] : half[a] < half[c]; });
 
     std::vector<uint32_t> slot_of(n);
-    for (auto* v : {&u_, &w_, &x_, &y_, &z_, &cos_, &sin_, &rx_, &ry_, &rz_, &rw_, &vx_, &vy_, &vz_}) v->resize(n);
-    frames_.resize(8 * n);
-    p4_.resize(4 * n);
+    std::vector<size_t> sizes(kSlotPlanes, n);
+    sizes[kP4] = 4 * n;
+    sizes[kFrames] = 8 * n;
+    planes_.resize(sizes);
+    slot_count_ = n;
+    float *u_ = planes_[kU], *w_ = planes_[kW], *x_ = planes_[kX], *y_ = planes_[kY], *z_ = planes_[kZ];
+    float *cos_ = planes_[kCos], *sin_ = planes_[kSin], *rx_ = planes_[kRx], *ry_ = planes_[kRy];
+    float *rz_ = planes_[kRz], *rw_ = planes_[kRw], *vx_ = planes_[kVx], *vy_ = planes_[kVy], *vz_ = planes_[kVz];
     std::vector<int32_t> vertex_of(n);
     for (int v = 0; v < V; ++v)
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) vertex_of[i] = v;
@@ -269,7 +274,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     float* const jacobians = maps.jacobians;
     // J is assembled whenever it is asked for, written or applied to a displacement.
     const bool with_j = maps.jacobians != nullptr || maps.moved_count > 0;
-    if (with_j) turns_.resize(9 * u_.size());
+    if (with_j) turns_.resize(9 * slot_count_);
     // With displacements, J only for the displaced vertices (a face's shape keys move a few
     // thousand vertices of a body): per vertex, and per batch of influences for the turns.
     // moved_at_ (all -1 between calls) says which displacement a vertex has.
@@ -293,9 +298,9 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         return false;
     };
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
-    const FrameSlots slots{u_.data(),   w_.data(),  x_.data(),  y_.data(),     z_.data(),  cos_.data(),
-                           sin_.data(), rx_.data(), ry_.data(), rz_.data(),    rw_.data(), vx_.data(),
-                           vy_.data(),  vz_.data(), p4_.data(), frames_.data()};
+    SlotPlanes& pl = planes_;
+    const FrameSlots slots{pl[kU],  pl[kW],  pl[kX],  pl[kY],  pl[kZ],  pl[kCos], pl[kSin], pl[kRx],
+                           pl[kRy], pl[kRz], pl[kRw], pl[kVx], pl[kVy], pl[kVz],  pl[kP4],  pl[kFrames]};
     tbb::parallel_for(tbb::blocked_range<size_t>(0, batches_.size()), [&](const tbb::blocked_range<size_t>& r) {
         const FlushDenormals flush;
         for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -303,15 +308,15 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             if (bt.frames)
                 evaluate_frame_batch(half_spans[bt.half_span], bt.begin, bt.end, slots);
             else
-                evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), x_.data(), y_.data(),
-                               z_.data(), cos_.data(), sin_.data(), p4_.data());
+                evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.x, slots.y, slots.z,
+                               slots.cos, slots.sin, slots.p4);
             if (batch_needs_j(bt))
-                evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, u_.data(), w_.data(), rx_.data(),
-                                    ry_.data(), rz_.data(), rw_.data(), turns_.data());
+                evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.rx, slots.ry,
+                                    slots.rz, slots.rw, turns_.data());
         }
     });
     const float* rest = b.rest_positions.data();
-    const float* p4 = p4_.data();
+    const float* p4 = slots.p4;
     const auto store = [&](int v, Float4 p, const float* j) {
         if (const int32_t i = any_moved ? moved_at[v] : -1; i >= 0) {  // J d
             const float* d = maps.displacements + 3 * static_cast<size_t>(i);
@@ -425,7 +430,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 for (int c = 0; c < 9; ++c) j[c] = 0.0f;
             FrameBlend blend;
             for (const BlendEntry* f = first_slot; f != bones_first; ++f) {
-                const float* o = &frames_[8 * static_cast<size_t>(f->index)];
+                const float* o = &slots.frames[8 * static_cast<size_t>(f->index)];
                 blend.add_weighted(load4(o), load4(o + 4));  // w q, ½ w t q
             }
             for (const BlendEntry* f = bones_first; f != end; ++f) {

@@ -13,6 +13,7 @@
 #include "bind/bind.h"
 #include "deform/frame_blend.h"
 #include "deform/linear_blend_skinning.h"
+#include "deform/slot_planes.h"
 
 #include <array>
 #include <cstdint>
@@ -60,18 +61,36 @@ private:
         int32_t half_span, begin, end;
         bool frames;  // influences of vertices blended as rigid frames
     };
-    std::vector<Batch> batches_;                        // ranges of one half-span, <= kBatch long
-    std::vector<float> u_, w_, x_, y_, z_, cos_, sin_;  // influences sorted by half-span
-    std::vector<float> rx_, ry_, rz_, rw_;              // Q_rest(u)^-1 (frame-blended slots)
-    std::vector<float> p4_;                             // per-frame weighted contributions, 4 per slot
-    std::vector<float> frames_;                         // per-frame, 8 per frame-blended slot:
-                                                        // w q, ½ w (p - V) q
-    std::vector<float> turns_;                          // with J only: 9 per slot, w R(u) R_rest(u)^-1
-    std::vector<float> vx_, vy_, vz_;                   // the slot's vertex at rest
-    std::vector<int32_t> slot_vertex_;                  // the slot's vertex
-    std::vector<int32_t> moved_at_;                     // per vertex: its displacement, or -1
-    std::vector<uint32_t> row_offsets_, rows_;          // vertex -> its sorted influence slots
-    std::vector<int32_t> plain_vertices_;               // vertices of one influence, or none blended
+    std::vector<Batch> batches_;  // ranges of one half-span, <= kBatch long
+    /// Per slot (influences sorted by half-span): u, w, x, y, z, cos, sin; Q_rest(u)^-1
+    /// (frame-blended slots); the slot's vertex at rest; per frame the weighted contribution
+    /// (4 per slot) and, frame-blended slots, w q and ½ w (p - V) q (8 per slot).
+    enum SlotPlane : int {
+        kU,
+        kW,
+        kX,
+        kY,
+        kZ,
+        kCos,
+        kSin,
+        kRx,
+        kRy,
+        kRz,
+        kRw,
+        kVx,
+        kVy,
+        kVz,
+        kP4,
+        kFrames,
+        kSlotPlanes
+    };
+    SlotPlanes planes_;
+    size_t slot_count_ = 0;
+    std::vector<float> turns_;                  // with J only: 9 per slot, w R(u) R_rest(u)^-1
+    std::vector<int32_t> slot_vertex_;          // the slot's vertex
+    std::vector<int32_t> moved_at_;             // per vertex: its displacement, or -1
+    std::vector<uint32_t> row_offsets_, rows_;  // vertex -> its sorted influence slots
+    std::vector<int32_t> plain_vertices_;       // vertices of one influence, or none blended
     /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.
     struct BlendEntry {
         uint32_t index;
