@@ -195,10 +195,6 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     sizes[kP4] = 4 * n;
     sizes[kFrames] = 8 * n;
     planes_.resize(sizes);
-    slot_count_ = n;
-    float *u_ = planes_[kU], *w_ = planes_[kW], *x_ = planes_[kX], *y_ = planes_[kY], *z_ = planes_[kZ];
-    float *cos_ = planes_[kCos], *sin_ = planes_[kSin], *rx_ = planes_[kRx], *ry_ = planes_[kRy];
-    float *rz_ = planes_[kRz], *rw_ = planes_[kRw], *vx_ = planes_[kVx], *vy_ = planes_[kVy], *vz_ = planes_[kVz];
     std::vector<int32_t> vertex_of(n);
     for (int v = 0; v < V; ++v)
         for (uint32_t i = b.sweep_offsets[v]; i < b.sweep_offsets[v + 1]; ++i) vertex_of[i] = v;
@@ -206,23 +202,23 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     for (size_t s = 0; s < n; ++s) {
         const SweepInfluence& f = inf[order[s]];
         slot_of[order[s]] = static_cast<uint32_t>(s);
-        u_[s] = f.u;
-        w_[s] = f.weight;
-        x_[s] = f.local[0];
-        y_[s] = f.local[1];
-        z_[s] = f.local[2];
-        cos_[s] = f.cos_theta;
-        sin_[s] = f.sin_theta;
+        planes_[kU][s] = f.u;
+        planes_[kW][s] = f.weight;
+        planes_[kX][s] = f.local[0];
+        planes_[kY][s] = f.local[1];
+        planes_[kZ][s] = f.local[2];
+        planes_[kCos][s] = f.cos_theta;
+        planes_[kSin][s] = f.sin_theta;
         const int vert = vertex_of[order[s]];
         slot_vertex_[s] = vert;
-        vx_[s] = b.rest_positions[3 * static_cast<size_t>(vert)];
-        vy_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 1];
-        vz_[s] = b.rest_positions[3 * static_cast<size_t>(vert) + 2];
+        planes_[kVx][s] = b.rest_positions[3 * static_cast<size_t>(vert)];
+        planes_[kVy][s] = b.rest_positions[3 * static_cast<size_t>(vert) + 1];
+        planes_[kVz][s] = b.rest_positions[3 * static_cast<size_t>(vert) + 2];
         const auto& r = rest_inverse[order[s]];
-        rx_[s] = r[0];
-        ry_[s] = r[1];
-        rz_[s] = r[2];
-        rw_[s] = r[3];
+        planes_[kRx][s] = r[0];
+        planes_[kRy][s] = r[1];
+        planes_[kRz][s] = r[2];
+        planes_[kRw][s] = r[3];
     }
     for (size_t s = 0; s < n;) {
         const int32_t h = half[order[s]];
@@ -274,7 +270,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     float* const jacobians = maps.jacobians;
     // J is assembled whenever it is asked for, written or applied to a displacement.
     const bool with_j = maps.jacobians != nullptr || maps.moved_count > 0;
-    if (with_j) turns_.resize(9 * slot_count_);
+    if (with_j) turns_.resize(9 * planes_.size(kU));
     // With displacements, J only for the displaced vertices (a face's shape keys move a few
     // thousand vertices of a body): per vertex, and per batch of influences for the turns.
     // moved_at_ (all -1 between calls) says which displacement a vertex has.

@@ -85,7 +85,6 @@ private:
         kSlotPlanes
     };
     SlotPlanes planes_;
-    size_t slot_count_ = 0;
     std::vector<float> turns_;                  // with J only: 9 per slot, w R(u) R_rest(u)^-1
     std::vector<int32_t> slot_vertex_;          // the slot's vertex
     std::vector<int32_t> moved_at_;             // per vertex: its displacement, or -1
