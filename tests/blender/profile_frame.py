@@ -2,19 +2,24 @@
 """Where one frame of Sweep Deform goes, inside Blender: cProfile around the pose changes of
 measure_frame.py's posing loop (the product's set-up: the fitted rig, the replaced Armature
 modifier switched off but keeping its object), and the add-on's handler alone. Prints the
-profile; never fails on speed.
+profile, then the median time of each part of the handler timed alone (no profiler's overhead:
+the core's call, the output check, the offsets, the keys' scatter, the carrier's write); never
+fails on speed.
 
     BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
         --python tests/blender/profile_frame.py -- [--zip ZIP] [--frames N] [--shape-key 1|head]
 """
 
 import cProfile
+import collections
 import io
 import os
 import pstats
 import sys
+import time
 
 import bpy
+import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
@@ -43,6 +48,42 @@ def main():
         out = io.StringIO()
         pstats.Stats(profile, stream=out).sort_stats(sort).print_stats(25)
         print(f"\n==== {n} pose changes, {label} ====\n{out.getvalue()}")
+    print_parts(body, arm, pose_list[5:])
+
+
+def print_parts(body, arm, pose_list):
+    """Median ms of each part of the handler over the pose changes, each part timed alone."""
+    from bl_ext.user_default.sweep_deform.blender import frame, handlers, modifier, shape_keys
+    from bl_ext.user_default.sweep_deform.core import arrays, native
+    spent = collections.defaultdict(list)
+    parts = [(handlers, "evaluate_scene", "handler"), (frame, "_evaluate_entry", "the object's frame"),
+             (native.Deformer, "deform", "core: sd_deform"), (native.Deformer, "deform_displaced",
+                                                              "core: sd_deform_displaced"),
+             (frame, "_checked_output", "output check"), (arrays, "offsets_into", "offsets"),
+             (shape_keys, "displacements", "keys' displacements"), (arrays, "add_to_rows", "keys' scatter"),
+             (modifier, "write_offsets", "carrier write")]
+    originals = []
+    for owner, name, label in parts:
+        f = getattr(owner, name)
+        originals.append((owner, name, f))
+
+        def timed(*a, _f=f, _label=label, **k):
+            t = time.perf_counter()
+            try:
+                return _f(*a, **k)
+            finally:
+                spent[_label].append(time.perf_counter() - t)
+        setattr(owner, name, timed)
+    try:
+        posing = measure_frame.time_posing(body, arm, pose_list)
+    finally:
+        for owner, name, f in originals:
+            setattr(owner, name, f)
+    print(f"\n==== {len(pose_list)} pose changes, each part alone (median ms) ====")
+    print(f"  {'pose change, evaluated':28s} {1e3 * np.median(posing):.3f}")
+    for _, _, label in parts:
+        if spent[label]:
+            print(f"  {label:28s} {1e3 * np.median(spent[label]):.3f}  ({len(spent[label])} calls)")
 
 
 if __name__ == "__main__":
