@@ -88,6 +88,8 @@ private:
     std::vector<float> turns_;                  // with J only: 9 per slot, w R(u) R_rest(u)^-1
     std::vector<int32_t> slot_vertex_;          // the slot's vertex
     std::vector<int32_t> moved_at_;             // per vertex: its displacement, or -1
+    std::vector<int32_t> moved_seen_;           // the displaced vertices batch_moved_ was found for
+    std::vector<char> batch_moved_;             // per batch: holds a displaced vertex's influence
     std::vector<uint32_t> row_offsets_, rows_;  // vertex -> its sorted influence slots
     std::vector<int32_t> plain_vertices_;       // vertices of one influence, or none blended
     /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.

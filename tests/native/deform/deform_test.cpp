@@ -417,6 +417,44 @@ TEST(Deform, FramesMatchFiniteDifferencesOfPointsMovedOffTheSurface) {
     EXPECT_GT(largest_turn, 0.9);  // the forearm's cross-sections turned by about 90°
 }
 
+TEST(Deform, DisplacedVerticesAreTurnedByTheirFramesWhicheverSetMovesFromCallToCall) {
+    // deform_displaced turns each displacement by its vertex's J (as deform_frames gives it),
+    // also when the displaced vertices change between calls (a shape key's, then another's,
+    // then the first's again) and lie in other batches of the kernel than before: 25,600
+    // vertices, poses that differ from call to call.
+    const test::Arm arm(0.1, 0.07, 400, 64);
+    Deformer d(arm.rig, arm.bind());
+    const int V = arm.vertex_count();
+    std::vector<int32_t> forearm, upper_arm;
+    for (int v = 0; v < V; ++v) {
+        if (v >= V / 2 && v % 7 == 0) forearm.push_back(v);
+        if (v < V / 2 && v % 5 == 0) upper_arm.push_back(v);
+    }
+    const std::vector<std::vector<int32_t>*> sets = {&forearm, &upper_arm, &forearm, &upper_arm};
+    std::vector<float> out(arm.mesh.size()), positions(arm.mesh.size()), frames(9 * static_cast<size_t>(V));
+    for (size_t call = 0; call < sets.size(); ++call) {
+        const std::vector<int32_t>& moved = *sets[call];
+        const int32_t M = static_cast<int32_t>(moved.size());
+        std::vector<float> displacements(3 * static_cast<size_t>(M)), turned(displacements.size(), 42.0f);
+        for (size_t i = 0; i < displacements.size(); ++i)
+            displacements[i] = 0.001f * static_cast<float>(static_cast<int>(i * 7 % 11) - 5);
+        const auto pose =
+            arm.pose(glm::radians(40.0 + 30.0 * static_cast<double>(call)), 0.3 * static_cast<double>(call));
+        d.deform_displaced(pose.data(), M, moved.data(), displacements.data(), out.data(), turned.data());
+        d.deform_frames(pose.data(), positions.data(), frames.data());
+        EXPECT_EQ(out, positions) << "call " << call;
+        double worst = 0.0;
+        for (int32_t k = 0; k < M; ++k)
+            for (int r = 0; r < 3; ++r) {
+                double jd = 0.0;
+                for (int c = 0; c < 3; ++c)
+                    jd += frames[3 * (static_cast<size_t>(r) * V + moved[k]) + c] * displacements[3 * k + c];
+                worst = std::max(worst, std::abs(jd - turned[3 * k + r]));
+            }
+        EXPECT_LT(worst, 1e-7) << "call " << call << ": J d against deform_frames' J";
+    }
+}
+
 TEST(Deform, ConcurrentCallsOnOneDeformerGiveTheSerialResults) {
     // A render thread and the viewport may deform the same character at once: each call must
     // get the result of its own pose and settings, as if the calls had run one after another.
