@@ -291,11 +291,12 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     // through every influence for them took a tenth of a displaced frame.
     if (any_moved && !(moved_seen_.size() == static_cast<size_t>(maps.moved_count) &&
                        std::equal(moved_seen_.begin(), moved_seen_.end(), maps.moved))) {
-        moved_seen_.assign(maps.moved, maps.moved + maps.moved_count);
+        moved_seen_.clear();  // (found for no set until the flags are complete, should one throw)
         batch_moved_.assign(batches_.size(), 0);
         for (size_t i = 0; i < batches_.size(); ++i)
             for (int32_t s = batches_[i].begin; s < batches_[i].end && !batch_moved_[i]; ++s)
                 batch_moved_[i] = moved_at[slot_vertex_[s]] >= 0;
+        moved_seen_.assign(maps.moved, maps.moved + maps.moved_count);
     }
     const auto batch_needs_j = [&](size_t i) { return jacobians != nullptr || (any_moved && batch_moved_[i]); };
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
