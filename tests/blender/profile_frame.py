@@ -56,12 +56,17 @@ def print_parts(body, arm, pose_list):
     from bl_ext.user_default.sweep_deform.blender import frame, handlers, modifier, shape_keys
     from bl_ext.user_default.sweep_deform.core import arrays, native
     spent = collections.defaultdict(list)
-    parts = [(handlers, "evaluate_scene", "handler"), (frame, "_evaluate_entry", "the object's frame"),
-             (native.Deformer, "deform", "core: sd_deform"), (native.Deformer, "deform_displaced",
-                                                              "core: sd_deform_displaced"),
-             (frame, "_checked_output", "output check"), (arrays, "offsets_into", "offsets"),
-             (shape_keys, "displacements", "keys' displacements"), (arrays, "add_to_rows", "keys' scatter"),
-             (modifier, "write_offsets", "carrier write")]
+    parts = [
+        (handlers, "evaluate_scene", "handler"),
+        (frame, "_evaluate_entry", "the object's frame"),
+        (native.Deformer, "deform", "core: sd_deform"),
+        (native.Deformer, "deform_displaced", "core: sd_deform_displaced"),
+        (frame, "_checked_output", "output check"),
+        (arrays, "offsets_into", "offsets"),
+        (shape_keys, "displacements", "keys' displacements"),
+        (arrays, "add_to_rows", "keys' scatter"),
+        (modifier, "write_offsets", "carrier write"),
+    ]
     originals = []
     for owner, name, label in parts:
         f = getattr(owner, name)
