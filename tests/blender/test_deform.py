@@ -80,30 +80,64 @@ def _bound_and_posed(char):
     return co @ m[:3, :3].T + m[:3, 3]
 
 
-def test_a_rig_modelled_in_centimetres_deforms_as_in_metres():
-    """Many rigs come in centimetres under an object scale of 0.01 (FBX from other tools). The
-    same body so, bound with the product's fitting and posed alike, deforms to the same world
-    positions as in metres: nothing in the fitting, binding or deformation assumes metres."""
+@pytest.mark.parametrize("convention", ["centimetres", "y_up_centimetres"])
+def test_a_rig_in_another_unit_and_axes_deforms_as_in_metres_z_up(convention):
+    """Many rigs come in centimetres under an object scale of 0.01, and FBX files from other
+    tools with Y up under a 90 degree turn about X as well. The same body so, bound with the
+    product's fitting and posed alike, deforms to the same world positions as in metres with Z
+    up: nothing in the fitting, binding or deformation assumes metres or which way is up."""
     world = {}
-    for centimetres in (False, True):
+    for converted in (False, True):
         char = helpers.load("fixture")
         obj, arm = char.mesh, char.armature
         before = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
-        if centimetres:
-            grow = mathutils.Matrix.Scale(100.0, 4)
-            arm.data.transform(grow)
-            obj.data.transform(grow)
-            arm.scale = (0.01, 0.01, 0.01)
+        if converted:
+            turn = mathutils.Euler((math.pi / 2, 0.0, 0.0)) if convention == "y_up_centimetres" else mathutils.Euler()
+            placed = turn.to_matrix().to_4x4() @ mathutils.Matrix.Scale(0.01, 4)
+            arm.data.transform(placed.inverted())
+            obj.data.transform(placed.inverted())
+            arm.rotation_euler, arm.scale = turn, (0.01, 0.01, 0.01)
             if obj.parent != arm:
-                obj.scale = (0.01, 0.01, 0.01)
+                obj.rotation_euler, obj.scale = turn, (0.01, 0.01, 0.01)
             bpy.context.view_layer.update()
             after = np.array([obj.matrix_world @ v.co for v in obj.data.vertices])
             assert np.abs(after - before).max() < 1e-5 * helpers.diagonal(before)  # the same body
-        world[centimetres] = _bound_and_posed(char)
+        world[converted] = _bound_and_posed(char)
     diag = helpers.diagonal(world[False])
     worst = np.linalg.norm(world[True] - world[False], axis=1).max()
-    print(f"centimetres against metres: worst vertex {worst / diag:.2e} of the diagonal")
+    print(f"{convention} against metres, Z up: worst vertex {worst / diag:.2e} of the diagonal")
     assert worst < 1e-4 * diag
+
+
+def test_bones_rolled_otherwise_deform_alike():
+    """Rigs from other tools roll their bones their own way (Mixamo, DAZ, Rigify differ): a
+    bone's roll turns its local axes about it, not the skin it moves. The same body with every
+    bone rolled by 40 degrees, bound with the product's fitting and given the same deformation
+    per bone, deforms to the same positions: nothing in the fitting or binding reads the roll."""
+    world, moves = {}, None
+    for rolled in (False, True):
+        char = helpers.load("fixture")
+        obj, arm = char.mesh, char.armature
+        if rolled:
+            bpy.context.view_layer.objects.active = arm
+            bpy.ops.object.mode_set(mode='EDIT')
+            for eb in arm.data.edit_bones:
+                eb.roll += math.radians(40.0)
+            bpy.ops.object.mode_set(mode='OBJECT')
+        helpers.bind(char)
+        if moves is None:  # each bone's deformation (pose times inverse rest) in the unrolled rig
+            helpers.pose_limbs(char, elbow=1.2, knee=1.1, shoulder=0.6)
+            bpy.context.view_layer.update()
+            moves = {pb.name: pb.matrix @ pb.bone.matrix_local.inverted() for pb in arm.pose.bones}
+        else:  # the same deformations on the rolled rig's bones, parents first
+            for pb in sorted(arm.pose.bones, key=lambda b: len(b.parent_recursive)):
+                pb.matrix = moves[pb.name] @ pb.bone.matrix_local
+                bpy.context.view_layer.update()
+        world[rolled], _ = helpers.evaluated_positions(obj)
+    diag = helpers.diagonal(world[False])
+    worst = np.linalg.norm(world[True] - world[False], axis=1).max()
+    print(f"bones rolled 40 degrees against as made: worst vertex {worst / diag:.2e} of the diagonal")
+    assert worst < 1e-5 * diag
 
 
 def test_limb_bones_cut_in_two_deform_as_uncut():
