@@ -3,7 +3,7 @@
 measure_frame.py's posing loop (the product's set-up: the fitted rig, the replaced Armature
 modifier switched off but keeping its object), and the add-on's handler alone. Prints the
 profile, then the median time of each part of the handler timed alone (no profiler's overhead:
-the core's call, the output check, the offsets, the keys' scatter, the carrier's write); never
+the core's call, the output check, the offsets (one pass, or offsets and scatter apart), the carrier's write); never
 fails on speed.
 
     BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
@@ -62,6 +62,7 @@ def print_parts(body, arm, pose_list):
         (native.Deformer, "deform", "core: sd_deform"),
         (native.Deformer, "deform_displaced", "core: sd_deform_displaced"),
         (frame, "_checked_output", "output check"),
+        (native, "compose_offsets", "offsets (and the keys' J d), one pass"),
         (arrays, "offsets_into", "offsets"),
         (shape_keys, "displacements", "keys' displacements"),
         (arrays, "add_to_rows", "keys' scatter"),

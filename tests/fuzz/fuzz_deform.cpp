@@ -1,5 +1,5 @@
 // Deforming with arbitrary poses and volume settings, some vertices displaced, shape keys mixed:
-// either an error, or finite results.
+// either an error, or finite results; the frame's values composed from what came out.
 #include "fuzz_fixture.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -54,6 +54,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         if (count < 0 || count > V) __builtin_trap();
         sdfuzz::require_finite(mixed_moves.data(), 3 * static_cast<size_t>(count));
     }
+    // The frame's values composed from the same arrays (the moved list as it came: sometimes
+    // out of order, refused), into a buffer of its own and in place.
+    std::vector<float> composed(out.size());
+    const int32_t M = static_cast<int32_t>(moved.size());
+    const bool with_base = in.take<uint8_t>() & 1;
+    if (sd_compose_offsets(V, out.data(), blocks.data(), with_base ? out.data() : nullptr, M, moved.data(),
+                           turned.data(), moves.data(), composed.data()) == SD_OK)
+        sd_compose_offsets(V, out.data(), blocks.data(), nullptr, M, moved.data(), turned.data(), nullptr, out.data());
     sd_deformer_destroy(d);
     return 0;
 }

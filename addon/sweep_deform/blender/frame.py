@@ -290,18 +290,26 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refused_key = key
         return False
     deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
-    offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
-    if whole:  # the deformed positions: the mesh + offsets, and the keys' displacements turned
-        offsets = np.add(e.mesh_rest(obj), offsets, out=e.positions_buffer())
+    if whole:
         e.whole_moves = e.moves_copy() if moves is not None else None  # (a render may mix other values)
-    if moves is not None:  # the keys' turned displacements: + J d (positions), + (J - I) d (offsets)
-        change = turned if to_mesh is None else turned @ to_mesh
-        if not whole:
-            change -= d
-        if len(moved) == len(offsets):
-            offsets += change  # every vertex: no scatter
-        else:
-            arrays.add_to_rows(offsets, e.moved_flat, change)
+    if to_mesh is None:  # the sums below in one pass of the core, to the bit
+        offsets = native.compose_offsets(deformed, e.rest, e.mesh_rest(obj) if whole else None,
+                                         moved if moves is not None else None,
+                                         turned if moves is not None else None,
+                                         d if moves is not None and not whole else None,
+                                         e.positions_buffer() if whole else e.offsets)
+    else:
+        offsets = arrays.offsets_into(deformed, e.rest, to_mesh, e.offsets, e.scratch)
+        if whole:  # the deformed positions: the mesh + offsets, and the keys' displacements turned
+            offsets = np.add(e.mesh_rest(obj), offsets, out=e.positions_buffer())
+        if moves is not None:  # the keys' turned displacements: + J d (positions), + (J - I) d (offsets)
+            change = turned @ to_mesh
+            if not whole:
+                change -= d
+            if len(moved) == len(offsets):
+                offsets += change  # every vertex: no scatter
+            else:
+                arrays.add_to_rows(offsets, e.moved_flat, change)
     if frames is not None:  # the carrier's blocks: offsets, J - I (mesh space), rest (in place)
         packed[:n] = offsets
         arrays.pack_frames(frames, linear, to_mesh)

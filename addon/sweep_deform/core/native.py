@@ -27,7 +27,7 @@ import numpy as np
 #: The library file name this add-on version ships and loads (never the bare SONAME).
 LIBRARY_FILE = "libsweepdeform.so.0.1.0"
 #: The ``SD_ABI_VERSION`` this binding was written against.
-ABI_VERSION = 4
+ABI_VERSION = 5
 
 SD_OK = 0
 STATUS_NAMES = {
@@ -178,6 +178,7 @@ SIGNATURES = {
     "sd_deform_displaced": (Status, [DeformerP, c_int32, F32, c_int32, c_int32, I32, F32, F32_OUT, F32_OUT]),
     "sd_mix_shape_keys": (Status, [c_int32, F32, c_int32, F32, c_int32, I32, F32, P_INT32, I32_OUT,
                                    F32_OUT]),
+    "sd_compose_offsets": (Status, [c_int32, F32, F32, F32, c_int32, I32, F32, F32, F32_OUT]),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
     # the output check (issue 15)
@@ -369,6 +370,23 @@ def mix_shape_keys(rest, blocks, terms, values, moved, moves):
           np.ascontiguousarray(terms, dtype=np.int32), np.ascontiguousarray(values, dtype=np.float32),
           ctypes.byref(count), moved, moves)
     return count.value
+
+
+def compose_offsets(positions, rest, base, moved, turned, displacements, out):
+    """sd_compose_offsets: out = base + (positions − rest), then out[moved] += turned −
+    displacements, in one pass and to the bit as those sums made one array at a time (numpy's
+    order). positions, rest, out (V,3) float32; base (V,3) or None; moved (M,) int32 strictly
+    ascending; turned (M,3); displacements (M,3) or None. Returns `out`."""
+    V = len(rest)
+    for name, a in (("positions", positions), ("base", base), ("out", out)):
+        if a is not None and a.size != 3 * V:
+            raise ValueError(f"{name} must hold {V} positions")
+    M = 0 if moved is None else len(moved)
+    for name, a in (("turned", turned), ("displacements", displacements)):
+        if a is not None and a.size != 3 * M:
+            raise ValueError(f"{name} must hold {M} vectors")
+    _call("sd_compose_offsets", V, positions, rest, base, M, moved, turned, displacements, out)
+    return out
 
 
 class _Handle:

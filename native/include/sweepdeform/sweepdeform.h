@@ -52,8 +52,9 @@ extern "C" {
 
 /* Bumped whenever a signature or a struct layout of this header changes, or functions are
  * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
- * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced, sd_mix_shape_keys). */
-#define SD_ABI_VERSION 4
+ * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced, sd_mix_shape_keys;
+ * 5: sd_compose_offsets). */
+#define SD_ABI_VERSION 5
 
 typedef enum sd_status {
     SD_OK = 0,
@@ -250,6 +251,24 @@ SD_API sd_status sd_deform_displaced(sd_deformer* deformer, int32_t bone_count, 
 SD_API sd_status sd_mix_shape_keys(int32_t vertex_count, const float* rest, int32_t block_count, const float* blocks,
                                    int32_t term_count, const int32_t* term_blocks, const float* term_values,
                                    int32_t* out_moved_count, int32_t* out_moved, float* out_moves);
+
+/*
+ * A frame's values for the caller's mesh, composed in one pass:
+ *   out[v] = base[v] + (positions[v] - rest[v])        (base NULL: positions[v] - rest[v])
+ *   then for i < M: out[moved[i]] += turned[i] - displacements[i]   (NULL: += turned[i])
+ * each sum one float32 operation in that order, so the result is the same to the bit as the
+ * same sums made one array at a time (a mesh's positions from sd_deform_displaced's output:
+ * base the mesh, displacements NULL; offsets from the mesh's shape-keyed positions: base NULL,
+ * displacements the keys' d).
+ *  vertex_count    V >= 0; positions, rest, out: #V*3; base #V*3 or NULL (any values)
+ *  moved_count     M in [0, V]; moved_vertices #M strictly ascending in [0, V); turned #M*3,
+ *                  displacements #M*3 or NULL; moved_vertices and turned may be NULL when M is 0
+ * out may be positions, rest or base. Nothing is written when an argument is refused.
+ * Parallel, in blocks of vertices.
+ */
+SD_API sd_status sd_compose_offsets(int32_t vertex_count, const float* positions, const float* rest, const float* base,
+                                    int32_t moved_count, const int32_t* moved_vertices, const float* turned,
+                                    const float* displacements, float* out);
 
 /*
  * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -351,6 +352,63 @@ TEST(CApi, ShapeKeysMixAsBlenderMixesThem) {
     ASSERT_EQ(sd_mix_shape_keys(4, rest.data(), 1, blocks.data(), 0, nullptr, nullptr, &count, moved, moves), SD_OK);
     ASSERT_EQ(count, 1);
     EXPECT_EQ(moved[0], 3);
+}
+
+TEST(CApi, ComposedOffsetsAreTheSumsMadeOneArrayAtATime) {
+    // Values of mixed magnitudes, so that another order of the sums ((base + positions) -
+    // rest, say) rounds differently somewhere; enough vertices for several blocks on the
+    // threads, moved ones either side of the blocks' edges (8192 vertices a block).
+    const int V = 20000;
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> small(-1e-3f, 1e-3f), large(-50.0f, 50.0f);
+    std::vector<float> p(3 * V), r(3 * V), base(3 * V);
+    for (int i = 0; i < 3 * V; ++i) {
+        r[i] = large(rng);
+        p[i] = r[i] + small(rng);
+        base[i] = large(rng) * 1e-2f;
+    }
+    const std::vector<int32_t> moved = {3, 17, 18, 250, 8191, 8192, 16383, 16384, 19999};
+    const int M = static_cast<int>(moved.size());
+    std::vector<float> turned(3 * M), d(3 * M);
+    for (int i = 0; i < 3 * M; ++i) turned[i] = small(rng), d[i] = small(rng);
+    for (const bool with_base : {false, true})
+        for (const bool with_d : {false, true}) {
+            std::vector<float> expected(3 * V), diff(3 * V), change(3 * M);
+            for (int i = 0; i < 3 * V; ++i) diff[i] = p[i] - r[i];
+            for (int i = 0; i < 3 * V; ++i) expected[i] = with_base ? base[i] + diff[i] : diff[i];
+            for (int i = 0; i < 3 * M; ++i) change[i] = with_d ? turned[i] - d[i] : turned[i];
+            for (int i = 0; i < M; ++i)
+                for (int c = 0; c < 3; ++c) expected[3 * moved[i] + c] += change[3 * i + c];
+            std::vector<float> out(3 * V, 42.0f);
+            ASSERT_EQ(sd_compose_offsets(V, p.data(), r.data(), with_base ? base.data() : nullptr, M, moved.data(),
+                                         turned.data(), with_d ? d.data() : nullptr, out.data()),
+                      SD_OK)
+                << sd_last_error();
+            for (int i = 0; i < 3 * V; ++i)
+                ASSERT_EQ(out[i], expected[i]) << i << " base " << with_base << " d " << with_d;
+            if (with_base) {  // into the base itself
+                std::vector<float> in_place = base;
+                ASSERT_EQ(sd_compose_offsets(V, p.data(), r.data(), in_place.data(), M, moved.data(), turned.data(),
+                                             with_d ? d.data() : nullptr, in_place.data()),
+                          SD_OK);
+                EXPECT_EQ(in_place, expected);
+            }
+        }
+    // Refused, nothing written: a vertex twice, out of order, outside the mesh, a NULL.
+    std::vector<float> out(3 * V, 42.0f);
+    const auto compose = [&](const std::vector<int32_t>& which) {
+        return sd_compose_offsets(V, p.data(), r.data(), nullptr, static_cast<int32_t>(which.size()), which.data(),
+                                  turned.data(), nullptr, out.data());
+    };
+    expect_error(compose({3, 3}), SD_ERR_INVALID_ARGUMENT, "not ascending");
+    expect_error(compose({17, 3}), SD_ERR_INVALID_ARGUMENT, "not ascending");
+    expect_error(compose({3, V}), SD_ERR_INVALID_ARGUMENT, "not in [0, vertex_count)");
+    expect_error(compose({-1}), SD_ERR_INVALID_ARGUMENT, "not in [0, vertex_count)");
+    expect_error(sd_compose_offsets(V, p.data(), nullptr, nullptr, 0, nullptr, nullptr, nullptr, out.data()),
+                 SD_ERR_INVALID_ARGUMENT, "NULL");
+    expect_error(sd_compose_offsets(V, p.data(), r.data(), nullptr, 1, moved.data(), nullptr, nullptr, out.data()),
+                 SD_ERR_INVALID_ARGUMENT, "NULL");
+    for (float o : out) ASSERT_EQ(o, 42.0f) << "output touched by a failed call";
 }
 
 TEST(CApi, BlobsRoundTripExactly) {
