@@ -216,4 +216,4 @@ def unregister():
         for h in [h for h in handlers if h is fn or getattr(h, "__qualname__", None) == fn.__qualname__
                   and getattr(h, "__module__", None) == fn.__module__]:
             handlers.remove(h)
-    deformer_cache.clear()
+    deformer_cache.clear(keep_tables=False)
