@@ -9,8 +9,8 @@ returns at once when that key has not changed, which is what keeps the handlers 
 the depsgraph their own writes back (see handlers.py). Entries are keyed by object name and
 bind id, so a new binding never meets an old entry.
 
-A clear (load, undo, redo) keeps the last generation's deformers by what their joint volume
-tables were measured on, so that a new entry for the same binding and mesh takes the tables
+An undo or redo step keeps the last generation's deformers by what their joint volume tables
+were measured on, so that a new entry for the same binding and mesh takes the tables
 instead of bending every limb joint again (0.28 s for the 53.5K MakeHuman: a hitch at every
 undo step, per character).
 """
@@ -260,7 +260,7 @@ def _hold_joint_volumes(obj, deformer, triangles):
     """Holds the mesh's volume at the limb joints (sd_deformer_hold_joint_volumes), measured on
     the object's `triangles`; for a mesh bound through another's map, the source's tables, so that
     both follow the same sweeps (a point cloud has no volume of its own). A deformer of the
-    cache's last generation (before a load, undo or redo) for the same binding and triangles
+    cache's last generation (before an undo or redo step) for the same binding and triangles
     gives its tables instead of a new measurement. Returns (joints held, why not or "", the key
     of the tables it measured, or None)."""
     source_name = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
@@ -316,9 +316,9 @@ def forget_armature(arm):
 
 
 def clear(keep_tables=True):
-    """Drops every entry (load, undo, redo); their deformers that hold joint volumes are kept
-    until the next clear, for new entries of the same bindings to take the tables from (not
-    when the extension is switched off: `keep_tables` False)."""
+    """Drops every entry (load, undo, redo); with `keep_tables` (undo, redo) their deformers
+    that hold joint volumes are kept until the next clear, for new entries of the same bindings
+    to take the tables from."""
     global _retired
     _retired = {e.tables_key: e.deformer for e in _cache.values()
                 if keep_tables and e.deformer is not None and e.tables_key is not None and e.joints_held > 0}

@@ -164,7 +164,7 @@ def on_save_post(*_args):
 
 @persistent
 def on_load_post(*_args):
-    deformer_cache.clear()
+    deformer_cache.clear(keep_tables=False)  # (another file, most often: nothing to take again)
     modifier.forget_identifiers()
     _modes.clear()
     if any(modifier.is_sweep_group(ng) for ng in bpy.data.node_groups):
