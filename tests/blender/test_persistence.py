@@ -74,6 +74,47 @@ def test_an_undo_step_keeps_the_joints_volume_tables(monkeypatch):
     assert cache.entry(obj).joints_held == held and len(measured) == n + 1
 
 
+def test_a_file_opened_again_takes_the_joints_volume_tables_it_kept(monkeypatch):
+    """A save keeps the joints' volume tables with the binding (the core's blob, and the bind id
+    and triangles they were measured on), so the file opened again bends no joint to measure
+    them (0.3 s per 53.5K character at every open: a farm's every job) and deforms to the bit
+    as before. A damaged blob is measured again and written anew at the next save."""
+    cache, native = helpers.sub("blender.deformer_cache"), helpers.sub("core.native")
+    persistence = helpers.sub("blender.persistence")
+    measured = []
+    measure = native.Deformer.hold_joint_volumes
+    monkeypatch.setattr(native.Deformer, "hold_joint_volumes", lambda d, t: measured.append(1) or measure(d, t))
+    char = helpers.load("fixture")
+    obj = helpers.bind(char)
+    helpers.pose_limbs(char, elbow=1.3, knee=0.9, shoulder=0.5)
+    bpy.context.view_layer.update()
+    first, _ = helpers.evaluated_positions(obj)
+    held = cache.peek(obj).joints_held
+    assert held > 0 and persistence.JOINT_VOLUMES_KEY not in obj  # (kept at save, not before)
+    path = os.path.join(helpers.tmp_dir(), "joint_volumes_kept.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    assert persistence.JOINT_VOLUMES_KEY in obj
+
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    obj = bpy.data.objects[char.mesh_name]
+    n = len(measured)
+    helpers.pose_limbs(char, elbow=0.6, knee=1.4)
+    bpy.context.view_layer.update()
+    helpers.pose_limbs(char, elbow=1.3, knee=0.9, shoulder=0.5)
+    bpy.context.view_layer.update()
+    assert cache.peek(obj).joints_held == held and len(measured) == n  # read, not measured
+    np.testing.assert_array_equal(helpers.evaluated_positions(obj)[0], first)
+
+    kept = bytearray(obj[persistence.JOINT_VOLUMES_KEY])
+    kept[-1] ^= 0x20  # its checksum no longer matches
+    persistence._put_bytes(obj, persistence.JOINT_VOLUMES_KEY, bytes(kept))
+    cache.clear(keep_tables=False)
+    assert cache.entry(obj).joints_held == held and len(measured) == n + 1  # measured again
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    assert bytes(obj[persistence.JOINT_VOLUMES_KEY]) == cache.peek(obj).deformer.serialize_joint_volumes()
+
+
 def test_damaged_blob_needs_rebind():
     char = helpers.load("makehuman")
     helpers.use_test_rig([char])

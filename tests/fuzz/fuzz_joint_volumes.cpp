@@ -1,8 +1,26 @@
 // Holding the joints' volume on the arm's ring mesh with triangles from the input (corners
 // anywhere, fewer triangles, another vertex count), then a frame; and a second deformer of the
 // same rig taking the first one's tables: either an error that changes nothing, or finite frames,
-// the two deformers' bit for bit the same.
+// the two deformers' bit for bit the same. Then the tables through their blob, some of its
+// payload's bytes changed from the input and its checksum made right again (so that the reader
+// sees them): a blob left whole deforms as the first deformer, any other is refused or deforms
+// to finite positions.
 #include "fuzz_fixture.h"
+
+#include <cstring>
+
+namespace {
+
+uint32_t crc32(const uint8_t* p, size_t n) {
+    uint32_t c = 0xFFFFFFFFu;
+    for (size_t i = 0; i < n; ++i) {
+        c ^= p[i];
+        for (int k = 0; k < 8; ++k) c = (c & 1) ? 0xEDB88320u ^ (c >> 1) : c >> 1;
+    }
+    return c ^ 0xFFFFFFFFu;
+}
+
+}  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     static const sdfuzz::Arm arm;
@@ -37,6 +55,27 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         sdfuzz::require_finite(out.data(), out.size());
         if (out != again) __builtin_trap();
     }
+    int64_t n = 0;
+    if (sd_deformer_serialize_joint_volumes(d, nullptr, 0, &n) != SD_OK) __builtin_trap();
+    std::vector<uint8_t> blob(static_cast<size_t>(n));
+    if (sd_deformer_serialize_joint_volumes(d, blob.data(), n, &n) != SD_OK || n < 20) __builtin_trap();
+    const size_t header = 16, payload = blob.size() - header - 4;
+    const int changes = in.take<uint8_t>() % 4;
+    for (int i = 0; i < changes && payload > 0; ++i) {
+        const size_t at = header + in.take<uint16_t>() % payload;  // (read in this order)
+        blob[at] = in.take<uint8_t>();
+    }
+    const uint32_t crc = crc32(blob.data() + header, payload);
+    std::memcpy(blob.data() + header + payload, &crc, 4);
+    sd_deformer* loaded = nullptr;
+    if (sd_deformer_create(arm.rig, binding, &loaded) != SD_OK) __builtin_trap();
+    const sd_status l = sd_deformer_load_joint_volumes(loaded, blob.data(), n, &held);
+    if (changes == 0 && l != SD_OK) __builtin_trap();
+    if (l == SD_OK && sd_deform(loaded, 3, pose, V, again.data()) == SD_OK) {
+        sdfuzz::require_finite(again.data(), again.size());
+        if (changes == 0 && a == SD_OK && out != again) __builtin_trap();
+    }
+    sd_deformer_destroy(loaded);
     sd_deformer_destroy(copy);
     sd_deformer_destroy(d);
     return 0;

@@ -261,7 +261,8 @@ def _hold_joint_volumes(obj, deformer, triangles):
     the object's `triangles`; for a mesh bound through another's map, the source's tables, so that
     both follow the same sweeps (a point cloud has no volume of its own). A deformer of the
     cache's last generation (before an undo or redo step) for the same binding and triangles
-    gives its tables instead of a new measurement. Returns (joints held, why not or "", the key
+    gives its tables instead of a new measurement, and so do the tables kept in the file at its
+    last save (persistence.store_joint_volumes). Returns (joints held, why not or "", the key
     of the tables it measured, or None)."""
     source_name = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
     try:
@@ -279,6 +280,13 @@ def _hold_joint_volumes(obj, deformer, triangles):
                 return deformer.hold_joint_volumes_of(kept), "", key
             except native.NativeError:  # (another rig after all: measured below)
                 pass
+        stored = persistence.stored_joint_volumes(obj, key)  # kept in the file at its last save
+        if stored is not None:
+            try:
+                return deformer.load_joint_volumes(stored), "", key
+            except native.NativeError as e:  # damaged: measured again, and kept anew at the next save
+                print(f"Sweep Deform: '{obj.name}': the joints' volume tables kept in the file are not usable "
+                      f"({e}): measured again")
         return deformer.hold_joint_volumes(triangles), "", key
     except (native.NativeError, ValueError) as e:
         return 0, f"the volume at the joints is not held: {e}", None

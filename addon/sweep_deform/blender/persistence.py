@@ -10,7 +10,10 @@
 * In ``Object.sweep_deform``: the rig's bone names (the pose is gathered by name), the mesh's
   element counts, a SHA-1 of its connectivity and of its rest positions.
 * Native objects are never saved: the deformer cache re-creates a deformer lazily after load or
-  undo (see deformer_cache.py).
+  undo (see deformer_cache.py). What it measures on the bound mesh, the joints' volume tables,
+  is kept at save as the core's blob (``sd_deformer_serialize_joint_volumes``) with what it was
+  measured on (``_sweep_deform_joint_volumes``, ``_sweep_deform_joint_volumes_for``: the bind id
+  and the SHA-1 of the triangles), so a file opened again need not bend every limb joint.
 * Key-ellipse corrections (Sect. 4.2) are properties of ``Object.sweep_deform`` (saved and
   undone like any property); when the file is saved, the rig blob gets a copy of them
   (format version 2 and on), so the blob alone describes the edited rig for other tools.
@@ -30,6 +33,9 @@ BINDING_KEY = "_sweep_deform_binding"
 REST_POSE_KEY = "_sweep_deform_rest_pose"
 #: The fitting's JSON report (for inspection; not needed to deform).
 REPORT_KEY = "_sweep_deform_fit_report"
+#: The joints' volume tables (the core's blob) and "bind id:triangles' SHA-1" they were measured on.
+JOINT_VOLUMES_KEY = "_sweep_deform_joint_volumes"
+JOINT_VOLUMES_FOR_KEY = "_sweep_deform_joint_volumes_for"
 
 
 # ---- storing ----------------------------------------------------------------------------
@@ -64,7 +70,7 @@ def store(obj, rig_blob, binding_blob, bone_names, rest_pose, sweep_count, repor
 
 
 def clear(obj):
-    for key in (RIG_KEY, BINDING_KEY, REST_POSE_KEY, REPORT_KEY):
+    for key in (RIG_KEY, BINDING_KEY, REST_POSE_KEY, REPORT_KEY, JOINT_VOLUMES_KEY, JOINT_VOLUMES_FOR_KEY):
         if key in obj:
             del obj[key]
     s = obj.sweep_deform
@@ -93,6 +99,29 @@ def load(obj):
     rig = native.Rig.deserialize(bytes(obj[RIG_KEY]))
     binding = native.Binding.deserialize(bytes(obj[BINDING_KEY]))
     return (rig, binding) + load_skeleton(obj)
+
+
+def joint_volumes_for(tables_key):
+    """The text kept with the tables: what they were measured on (deformer_cache's key)."""
+    return ":".join(tables_key)
+
+
+def stored_joint_volumes(obj, tables_key):
+    """The tables' blob kept for exactly this binding and triangles, or None."""
+    if obj.get(JOINT_VOLUMES_FOR_KEY) != joint_volumes_for(tables_key) or JOINT_VOLUMES_KEY not in obj:
+        return None
+    return bytes(obj[JOINT_VOLUMES_KEY])
+
+
+def store_joint_volumes(obj, deformer, tables_key):
+    """Keeps the deformer's tables with the object unless the very same are kept already (a
+    damaged blob is written anew). Returns True if written."""
+    blob = deformer.serialize_joint_volumes()
+    if stored_joint_volumes(obj, tables_key) == blob:
+        return False
+    _put_bytes(obj, JOINT_VOLUMES_KEY, blob)
+    obj[JOINT_VOLUMES_FOR_KEY] = joint_volumes_for(tables_key)
+    return True
 
 
 # ---- checking ---------------------------------------------------------------------------
@@ -131,6 +160,7 @@ def store_corrections(obj):
 
 
 def _on_save_pre(*_args):
+    from . import deformer_cache  # (it imports this module)
     for obj in bpy.data.objects:
         if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or RIG_KEY not in obj:
             continue
@@ -138,6 +168,14 @@ def _on_save_pre(*_args):
             store_corrections(obj)
         except (native.NativeError, native.NativeLibraryError, ValueError) as e:
             print(f"Sweep Deform: '{obj.name}': the corrections were not copied into the rig blob: {e}")
+        e = deformer_cache.peek(obj)
+        if e is None or e.deformer is None or e.tables_key is None or obj.library is not None:
+            continue
+        try:
+            store_joint_volumes(obj, e.deformer, e.tables_key)
+        except (native.NativeError, native.NativeLibraryError, ValueError, RuntimeError, TypeError) as err:
+            print(f"Sweep Deform: '{obj.name}': the joints' volume tables were not kept in the file "
+                  f"(measured again when it is opened): {err}")
 
 
 def register():

@@ -173,6 +173,8 @@ SIGNATURES = {
     "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32]),
     "sd_deformer_hold_joint_volumes": (Status, [DeformerP, c_int32, c_int32, I32, P_INT32]),
     "sd_deformer_hold_joint_volumes_of": (Status, [DeformerP, DeformerP, P_INT32]),
+    "sd_deformer_serialize_joint_volumes": (Status, [DeformerP, U8_OUT, c_int64, P_INT64]),
+    "sd_deformer_load_joint_volumes": (Status, [DeformerP, U8, c_int64, P_INT32]),
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
     "sd_deform_frames": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT, F32_OUT]),
     "sd_deform_displaced": (Status, [DeformerP, c_int32, F32, c_int32, c_int32, I32, F32, F32_OUT, F32_OUT]),
@@ -651,6 +653,19 @@ class Deformer(_Handle):
         joints held."""
         count = ctypes.c_int32(0)
         _call("sd_deformer_hold_joint_volumes_of", self.ptr, source.ptr, ctypes.byref(count))
+        return count.value
+
+    def serialize_joint_volumes(self):
+        """The joints' tables as the core's versioned, checksummed blob (bytes)."""
+        return _serialize("sd_deformer_serialize_joint_volumes", self.ptr)
+
+    def load_joint_volumes(self, blob):
+        """Holds the joints' volume by the tables of a blob from serialize_joint_volumes (the
+        same rig; measured on this mesh: the caller's to know). Returns the joints held."""
+        data = np.frombuffer(bytes(blob), np.uint8)
+        count = ctypes.c_int32(0)
+        _call("sd_deformer_load_joint_volumes", self.ptr, data if data.size else np.zeros(1, np.uint8), data.size,
+              ctypes.byref(count))
         return count.value
 
     def deform(self, pose, out=None):

@@ -53,7 +53,7 @@ extern "C" {
 /* Bumped whenever a signature or a struct layout of this header changes, or functions are
  * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
  * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced, sd_mix_shape_keys;
- * 5: sd_compose_offsets). */
+ * 5: sd_compose_offsets, sd_deformer_serialize_joint_volumes, sd_deformer_load_joint_volumes). */
 #define SD_ABI_VERSION 5
 
 typedef enum sd_status {
@@ -197,6 +197,22 @@ SD_API sd_status sd_deformer_hold_joint_volumes(sd_deformer* deformer, int32_t v
  */
 SD_API sd_status sd_deformer_hold_joint_volumes_of(sd_deformer* deformer, const sd_deformer* source,
                                                    int32_t* out_joint_count);
+/*
+ * The joints' tables (as measured above) as a versioned, checksummed blob, to keep with the
+ * binding: a file opened again then need not bend every limb joint. Call with buffer NULL to
+ * get the size. A deformer that holds none gives a blob of no tables.
+ */
+SD_API sd_status sd_deformer_serialize_joint_volumes(const sd_deformer* deformer, uint8_t* buffer, int64_t capacity,
+                                                     int64_t* out_size);
+/*
+ * Holds the joints' volume by the tables of a blob from sd_deformer_serialize_joint_volumes of a
+ * deformer with the same rig (SD_ERR_MISMATCH otherwise); a damaged blob is
+ * SD_ERR_CORRUPT_DATA, tables that do not fit the rig SD_ERR_INVALID_ARGUMENT. The tables were
+ * measured on the caller's mesh: the caller keeps the blob with the binding it was made for.
+ * out_joint_count as above. On error nothing changes.
+ */
+SD_API sd_status sd_deformer_load_joint_volumes(sd_deformer* deformer, const uint8_t* blob, int64_t size,
+                                                int32_t* out_joint_count);
 
 /*
  * Deforms one frame.

@@ -3,6 +3,7 @@
 #include "sweepdeform/sweepdeform.h"
 
 #include "abi/guard.h"
+#include "deform/joint_volume_blob.h"
 #include "bind/serialize.h"
 #include "deform/deform.h"
 
@@ -15,6 +16,7 @@ namespace {
 
 using sd::abi::fail;
 using sd::abi::guarded;
+using sd::abi::write_blob;
 
 }  // namespace
 
@@ -76,6 +78,35 @@ sd_status sd_deformer_hold_joint_volumes_of(sd_deformer* d, const sd_deformer* s
             const auto lock = source->deformer->lock();
             tables = source->deformer->joint_volumes();
         }
+        d->deformer->set_joint_volumes(std::move(tables));
+        if (out_joint_count) *out_joint_count = static_cast<int32_t>(d->deformer->joint_volumes().size());
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_serialize_joint_volumes(const sd_deformer* d, uint8_t* buffer, int64_t capacity,
+                                              int64_t* out_size) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d, "deformer is NULL");
+        std::vector<sd::JointVolumeTable> tables;
+        {
+            const auto lock = d->deformer->lock();
+            tables = d->deformer->joint_volumes();
+        }
+        return write_blob(sd::serialize_joint_volumes(tables, sd::rig_fingerprint(d->deformer->rig())), buffer,
+                          capacity, out_size);
+    });
+}
+
+sd_status sd_deformer_load_joint_volumes(sd_deformer* d, const uint8_t* blob, int64_t size, int32_t* out_joint_count) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d, "deformer is NULL");
+        if (size < 0) throw sd::CorruptData("negative blob size");
+        uint64_t fingerprint = 0;
+        std::vector<sd::JointVolumeTable> tables =
+            sd::deserialize_joint_volumes(blob, static_cast<size_t>(size), &fingerprint);
+        if (fingerprint != sd::rig_fingerprint(d->deformer->rig()))
+            return fail(SD_ERR_MISMATCH, "the joint volumes were measured with another rig");
         d->deformer->set_joint_volumes(std::move(tables));
         if (out_joint_count) *out_joint_count = static_cast<int32_t>(d->deformer->joint_volumes().size());
         return SD_OK;

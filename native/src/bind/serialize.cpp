@@ -1,5 +1,7 @@
 #include "bind/serialize.h"
 
+#include "bind/blob_io.h"
+
 #include <glm/gtc/type_ptr.hpp>
 
 #include <array>
@@ -24,102 +26,10 @@ uint32_t crc32(const uint8_t* data, size_t size) {
 
 namespace {
 
-class Writer {
-public:
-    template <class T>
-    void put(const T& v) {
-        static_assert(std::is_trivially_copyable<T>::value, "plain data only");
-        const auto* p = reinterpret_cast<const uint8_t*>(&v);
-        bytes.insert(bytes.end(), p, p + sizeof(T));
-    }
-    /// GLM vectors, quaternions and matrices, as their doubles.
-    template <class G>
-    void put_glm(const G& g) {
-        const double* p = glm::value_ptr(g);
-        for (size_t i = 0; i < sizeof(G) / sizeof(double); ++i) put<double>(p[i]);
-    }
-    template <class T>
-    void put_array(const std::vector<T>& v) {
-        put<uint64_t>(v.size());
-        const auto* p = reinterpret_cast<const uint8_t*>(v.data());
-        bytes.insert(bytes.end(), p, p + v.size() * sizeof(T));
-    }
-    std::vector<uint8_t> bytes;
-};
-
-class Reader {
-public:
-    Reader(const uint8_t* data, size_t size) : p_(data), left_(size) {}
-    template <class T>
-    T get() {
-        T v;
-        take(&v, sizeof(T));
-        return v;
-    }
-    template <class G>
-    G get_glm() {
-        G g;
-        double* p = glm::value_ptr(g);
-        for (size_t i = 0; i < sizeof(G) / sizeof(double); ++i) p[i] = get<double>();
-        return g;
-    }
-    template <class T>
-    std::vector<T> get_array(size_t max_count) {
-        const uint64_t n = get<uint64_t>();
-        if (n > max_count || n * sizeof(T) > left_) throw CorruptData("blob array length is out of range");
-        std::vector<T> v(n);
-        take(v.data(), n * sizeof(T));
-        return v;
-    }
-    size_t left() const { return left_; }
-
-private:
-    void take(void* out, size_t n) {
-        if (n > left_) throw CorruptData("blob is truncated");
-        if (n == 0) return;  // an empty array: out may be NULL
-        std::memcpy(out, p_, n);
-        p_ += n;
-        left_ -= n;
-    }
-    const uint8_t* p_;
-    size_t left_;
-};
-
-std::vector<uint8_t> frame(const char magic[4], uint32_t version, const std::vector<uint8_t>& payload) {
-    Writer w;
-    w.bytes.assign(magic, magic + 4);
-    w.put<uint32_t>(version);
-    w.put<uint64_t>(payload.size());
-    w.bytes.insert(w.bytes.end(), payload.begin(), payload.end());
-    w.put<uint32_t>(crc32(payload.data(), payload.size()));
-    return w.bytes;
-}
-
-/// Checks the frame and returns a reader over the payload; versions [min_version, version]
-/// are accepted (out_version, if given, receives the blob's).
-Reader unframe(const uint8_t* data, size_t size, const char magic[4], uint32_t version, const char* what,
-               uint32_t min_version = 0, uint32_t* out_version = nullptr) {
-    if (!data) throw CorruptData(std::string(what) + " blob is NULL");
-    const size_t header = 4 + 4 + 8;
-    if (size < header + 4) throw CorruptData(std::string(what) + " blob is truncated");
-    if (std::memcmp(data, magic, 4) != 0) throw CorruptData(std::string("not a ") + what + " blob (bad magic)");
-    Reader r(data + 4, size - 4);
-    const uint32_t v = r.get<uint32_t>();
-    if (min_version == 0) min_version = version;
-    if (v < min_version || v > version)
-        throw CorruptData(
-            std::string(what) + " blob has format version " + std::to_string(v) + ", this library reads version" +
-            (min_version == version ? " " + std::to_string(version)
-                                    : "s " + std::to_string(min_version) + " to " + std::to_string(version)));
-    if (out_version) *out_version = v;
-    const uint64_t n = r.get<uint64_t>();
-    if (n != size - header - 4) throw CorruptData(std::string(what) + " blob is truncated or has trailing bytes");
-    uint32_t stored;
-    std::memcpy(&stored, data + header + n, 4);
-    if (stored != crc32(data + header, n))
-        throw CorruptData(std::string(what) + " blob checksum mismatch (corrupt data)");
-    return Reader(data + header, n);
-}
+using blob::frame;
+using blob::Reader;
+using blob::unframe;
+using blob::Writer;
 
 /// The version 1 payload: skeleton and key ellipses. The fingerprint hashes only this part,
 /// so editing corrections keeps a binding valid.

@@ -305,6 +305,22 @@ TEST(CApi, HoldingTheJointsVolumeRefusesBadTrianglesAndChangesNothing) {
     held = -1;
     EXPECT_EQ(sd_deformer_hold_joint_volumes_of(d, same, &held), SD_OK) << sd_last_error();
     EXPECT_EQ(held, 0);
+    // The tables as a blob (deform/joint_volume_blob.h; its content: JointVolume tests): for the
+    // same rig only, undamaged.
+    int64_t size = 0;
+    ASSERT_EQ(sd_deformer_serialize_joint_volumes(d, nullptr, 0, &size), SD_OK) << sd_last_error();
+    std::vector<uint8_t> blob(static_cast<size_t>(size));
+    ASSERT_EQ(sd_deformer_serialize_joint_volumes(d, blob.data(), size, &size), SD_OK) << sd_last_error();
+    held = -1;
+    EXPECT_EQ(sd_deformer_load_joint_volumes(same, blob.data(), size, &held), SD_OK) << sd_last_error();
+    EXPECT_EQ(held, 0);
+    expect_error(sd_deformer_load_joint_volumes(od, blob.data(), size, &held), SD_ERR_MISMATCH, "another rig");
+    std::vector<uint8_t> damaged = blob;
+    damaged.back() ^= 0x40;
+    expect_error(sd_deformer_load_joint_volumes(same, damaged.data(), size, &held), SD_ERR_CORRUPT_DATA, "checksum");
+    expect_error(sd_deformer_load_joint_volumes(same, blob.data(), -1, &held), SD_ERR_CORRUPT_DATA, "negative size");
+    expect_error(sd_deformer_load_joint_volumes(nullptr, blob.data(), size, &held), SD_ERR_INVALID_ARGUMENT, "NULL");
+    expect_error(sd_deformer_serialize_joint_volumes(nullptr, nullptr, 0, &size), SD_ERR_INVALID_ARGUMENT, "NULL");
     sd_deformer_destroy(same);
     sd_deformer_destroy(od);
     sd_binding_destroy(ob);

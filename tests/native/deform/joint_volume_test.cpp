@@ -3,7 +3,9 @@
 #include "deform/joint_volume.h"
 
 #include "character_fit.h"
+#include "bind/serialize.h"
 #include "deform/deform.h"
+#include "deform/joint_volume_blob.h"
 #include "fit/fit_rig.h"
 #include "test_arm.h"
 #include "turned_pose.h"
@@ -105,6 +107,40 @@ TEST(JointVolume, TablesNameTheRigsSweepsAndBones) {
     bad.key = 7;
     EXPECT_THROW(d.set_joint_volumes({bad}), InvalidInput);
     EXPECT_TRUE(d.joint_volumes().empty());  // nothing changed
+}
+
+TEST(JointVolume, TablesKeptAsABlobHoldTheSameVolumeToTheBit) {
+    // A file opened again takes the tables from the blob kept with its binding instead of
+    // bending every limb joint: read back, they deform every pose as the measured ones did.
+    const test::Arm arm;
+    const Binding binding = arm.bind();
+    JointVolumeTable t = numbered_elbow();
+    for (double& v : t.added) v *= 1e-4;  // (within the sweep's rest volume)
+    t.most_added = 0.01;
+    Deformer measured(arm.rig, binding), loaded(arm.rig, binding), none(arm.rig, binding);
+    measured.set_joint_volumes({t});
+    const std::vector<uint8_t> blob = serialize_joint_volumes(measured.joint_volumes(), rig_fingerprint(arm.rig));
+    uint64_t fingerprint = 0;
+    loaded.set_joint_volumes(deserialize_joint_volumes(blob.data(), blob.size(), &fingerprint));
+    EXPECT_EQ(fingerprint, rig_fingerprint(arm.rig));
+    std::vector<float> a(arm.mesh.size()), b(arm.mesh.size()), c(arm.mesh.size());
+    for (const double degrees : {45.0, 100.0, 150.0}) {
+        const auto pose = arm.pose(glm::radians(degrees));
+        measured.deform(pose.data(), a.data());
+        loaded.deform(pose.data(), b.data());
+        none.deform(pose.data(), c.data());
+        EXPECT_EQ(a, b) << degrees;
+        EXPECT_NE(a, c) << degrees;  // (the tables matter in these poses)
+    }
+    // Damaged: a byte changed (the checksum), cut short, axes not at right angles.
+    std::vector<uint8_t> changed = blob;
+    changed[30] ^= 1;
+    EXPECT_THROW(deserialize_joint_volumes(changed.data(), changed.size(), nullptr), CorruptData);
+    EXPECT_THROW(deserialize_joint_volumes(blob.data(), blob.size() - 1, nullptr), CorruptData);
+    JointVolumeTable skew = t;
+    skew.e1 = glm::normalize(dvec3(0.1, 1, 0));
+    const std::vector<uint8_t> skewed = serialize_joint_volumes({skew}, 0);
+    EXPECT_THROW(deserialize_joint_volumes(skewed.data(), skewed.size(), nullptr), CorruptData);
 }
 
 }  // namespace
