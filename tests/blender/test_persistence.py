@@ -43,13 +43,11 @@ def test_save_reload_exact(key):
     np.testing.assert_array_equal(check_equals_core(obj), second)
 
 
-def test_an_undo_step_keeps_the_joints_volume_tables(monkeypatch):
-    """Undo, redo and load drop every native object, and measuring each limb joint's volume
-    again (every joint bent through 24 swings) cost 0.28 s per 53.5K character at every undo
-    step. A new entry for the same binding and mesh takes the tables from the deformer it
-    replaces: no joint is bent again and the frame is the same to the bit. A new binding
-    measures afresh."""
-    cache, native = helpers.sub("blender.deformer_cache"), helpers.sub("core.native")
+def _bound_and_bent_counting_measurements(monkeypatch):
+    """The fixture bound and bent at elbows, knees and shoulders; every measurement of the
+    joints' volume (by the add-on or by the tests' own core deformer) appends to the list
+    returned. Returns (character, mesh object, that list)."""
+    native = helpers.sub("core.native")
     measured = []
     measure = native.Deformer.hold_joint_volumes
     monkeypatch.setattr(native.Deformer, "hold_joint_volumes", lambda d, t: measured.append(1) or measure(d, t))
@@ -57,6 +55,17 @@ def test_an_undo_step_keeps_the_joints_volume_tables(monkeypatch):
     obj = helpers.bind(char)
     helpers.pose_limbs(char, elbow=1.3, knee=0.9, shoulder=0.5)
     bpy.context.view_layer.update()
+    return char, obj, measured
+
+
+def test_an_undo_step_keeps_the_joints_volume_tables(monkeypatch):
+    """Undo, redo and load drop every native object, and measuring each limb joint's volume
+    again (every joint bent through 24 swings) cost 0.28 s per 53.5K character at every undo
+    step. A new entry for the same binding and mesh takes the tables from the deformer it
+    replaces: no joint is bent again and the frame is the same to the bit. A new binding
+    measures afresh."""
+    cache = helpers.sub("blender.deformer_cache")
+    char, obj, measured = _bound_and_bent_counting_measurements(monkeypatch)
     before = check_equals_core(obj)  # (which measures the core's own deformer's tables too)
     held = cache.peek(obj).joints_held
     assert held > 0
@@ -79,15 +88,8 @@ def test_a_file_opened_again_takes_the_joints_volume_tables_it_kept(monkeypatch)
     and triangles they were measured on), so the file opened again bends no joint to measure
     them (0.3 s per 53.5K character at every open: a farm's every job) and deforms to the bit
     as before. A damaged blob is measured again and written anew at the next save."""
-    cache, native = helpers.sub("blender.deformer_cache"), helpers.sub("core.native")
-    persistence = helpers.sub("blender.persistence")
-    measured = []
-    measure = native.Deformer.hold_joint_volumes
-    monkeypatch.setattr(native.Deformer, "hold_joint_volumes", lambda d, t: measured.append(1) or measure(d, t))
-    char = helpers.load("fixture")
-    obj = helpers.bind(char)
-    helpers.pose_limbs(char, elbow=1.3, knee=0.9, shoulder=0.5)
-    bpy.context.view_layer.update()
+    cache, persistence = helpers.sub("blender.deformer_cache"), helpers.sub("blender.persistence")
+    char, obj, measured = _bound_and_bent_counting_measurements(monkeypatch)
     first, _ = helpers.evaluated_positions(obj)
     held = cache.peek(obj).joints_held
     assert held > 0 and persistence.JOINT_VOLUMES_KEY not in obj  # (kept at save, not before)
