@@ -324,12 +324,12 @@ def forget_armature(arm):
 
 
 def clear(keep_tables=True):
-    """Drops every entry (load, undo, redo); with `keep_tables` (undo, redo) their deformers
-    that hold joint volumes are kept until the next clear, for new entries of the same bindings
-    to take the tables from."""
+    """Drops every entry (load, undo, redo); with `keep_tables` (undo, redo) the deformers whose
+    joint volume tables they measured (or read) are kept until the next clear, for new entries of
+    the same bindings to take the tables from (none held is a result too)."""
     global _retired
     _retired = {e.tables_key: e.deformer for e in _cache.values()
-                if keep_tables and e.deformer is not None and e.tables_key is not None and e.joints_held > 0}
+                if keep_tables and e.deformer is not None and e.tables_key is not None}
     for e in _cache.values():
         e.close()
     _cache.clear()
