@@ -292,6 +292,20 @@ def _hold_joint_volumes(obj, deformer, triangles):
         return 0, f"the volume at the joints is not held: {e}", None
 
 
+def keep_joint_volumes(obj):
+    """At save: keeps the object's measured joint volume tables in the file (persistence), so
+    that it opens without measuring them. An error is printed, never raised (a save must not
+    fail for it)."""
+    e = peek(obj)
+    if e is None or e.deformer is None or e.tables_key is None or obj.library is not None:
+        return
+    try:
+        persistence.store_joint_volumes(obj, e.deformer, e.tables_key)
+    except (native.NativeError, native.NativeLibraryError, ValueError, RuntimeError, TypeError) as err:
+        print(f"Sweep Deform: '{obj.name}': the joints' volume tables were not kept in the file "
+              f"(measured again when it is opened): {err}")
+
+
 def _key(obj):
     return (obj.name, obj.sweep_deform.bind_id)
 

@@ -152,8 +152,10 @@ def _each_bound_mesh(action, failure):
 @persistent
 def on_save_pre(*_args):
     """The file on disk deforms by the Armature modifier where the extension is missing, and
-    keeps the offsets, not the mesh carriers' copies of the meshes."""
+    keeps the offsets, not the mesh carriers' copies of the meshes, and the joints' measured
+    volume tables."""
     _each_bound_mesh(frame.fall_back_to_offsets, "its mesh carrier was not emptied")
+    _each_bound_mesh(deformer_cache.keep_joint_volumes, "the joints' volume tables were not kept")
     _each_bound_mesh(binding.prepare_for_save, "not prepared for Blender without the extension")
 
 

@@ -160,7 +160,6 @@ def store_corrections(obj):
 
 
 def _on_save_pre(*_args):
-    from . import deformer_cache  # (it imports this module)
     for obj in bpy.data.objects:
         if obj.type != 'MESH' or obj.sweep_deform.state == 'UNBOUND' or RIG_KEY not in obj:
             continue
@@ -168,14 +167,6 @@ def _on_save_pre(*_args):
             store_corrections(obj)
         except (native.NativeError, native.NativeLibraryError, ValueError) as e:
             print(f"Sweep Deform: '{obj.name}': the corrections were not copied into the rig blob: {e}")
-        e = deformer_cache.peek(obj)
-        if e is None or e.deformer is None or e.tables_key is None or obj.library is not None:
-            continue
-        try:
-            store_joint_volumes(obj, e.deformer, e.tables_key)
-        except (native.NativeError, native.NativeLibraryError, ValueError, RuntimeError, TypeError) as err:
-            print(f"Sweep Deform: '{obj.name}': the joints' volume tables were not kept in the file "
-                  f"(measured again when it is opened): {err}")
 
 
 def register():
