@@ -13,7 +13,12 @@
 #include <type_traits>
 #include <vector>
 
-namespace sd::blob {
+namespace sd {
+
+/// CRC-32 (IEEE 802.3) of a byte range.
+uint32_t crc32(const uint8_t* data, size_t size);
+
+namespace blob {
 
 class Writer {
 public:
@@ -84,4 +89,5 @@ std::vector<uint8_t> frame(const char magic[4], uint32_t version, const std::vec
 Reader unframe(const uint8_t* data, size_t size, const char magic[4], uint32_t version, const char* what,
                uint32_t min_version = 0, uint32_t* out_version = nullptr);
 
-}  // namespace sd::blob
+}  // namespace blob
+}  // namespace sd

@@ -32,7 +32,4 @@ Binding deserialize_binding(const uint8_t* data, size_t size);
 /// tell whether it was made with this rig.
 uint64_t rig_fingerprint(const Rig& rig);
 
-/// CRC-32 (IEEE 802.3) of a byte range.
-uint32_t crc32(const uint8_t* data, size_t size);
-
 }  // namespace sd

@@ -3,6 +3,7 @@
 // changing only near the edited key and the edit's angle, volume control keeping a scaling
 // edit, rest corrections, blobs of format version 3 (and reading versions 1 and 2), and the C ABI.
 #include "rig/key_pose.h"
+#include "bind/blob_io.h"
 #include "bind/serialize.h"
 #include "sweepdeform/sweepdeform.h"
 #include "test_arm.h"
