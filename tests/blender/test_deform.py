@@ -113,7 +113,7 @@ def test_bones_rolled_otherwise_deform_alike():
     """Rigs from other tools roll their bones their own way (Mixamo, DAZ, Rigify differ): a
     bone's roll turns its local axes about it, not the skin it moves. The same body with every
     bone rolled by 40 degrees, bound with the product's fitting and given the same deformation
-    per bone, deforms to the same positions: nothing in the fitting or binding reads the roll."""
+    per bone, deforms to the same positions: nothing in the fitting or binding depends on the roll."""
     world, moves = {}, None
     for rolled in (False, True):
         char = helpers.load("fixture")
