@@ -3,7 +3,8 @@
 // bottom-up. Optionally it also keeps, per node, a normal cone (an axis and the cosine of a
 // half-angle that bounds every triangle normal below the node) and whether the node's
 // triangles form one edge-connected patch — the two facts that let a self-collision query
-// skip a patch that cannot fold onto itself (Volino and Magnenat-Thalmann 1994).
+// skip a patch that cannot fold onto itself (Volino and Magnenat-Thalmann 1994; with the
+// outline condition of patch_outline.h).
 //
 // Layout: nodes in one array, a node's two children adjacent (left = first, right =
 // first + 1) and after their parent, so a reverse sweep over the array refits bottom-up.
@@ -53,6 +54,8 @@ public:
     bool with_cones() const { return with_cones_; }
     const NormalCone& cone(int node) const { return cones_[node]; }
     bool connected(int node) const { return connected_[node] != 0; }
+    /// True when a and b are the two children of one node.
+    bool siblings(int a, int b) const { return a != b && a > 0 && b > 0 && parent_[a] == parent_[b]; }
     /// True when nodes a and b (disjoint) share a triangle edge (with_cones trees only).
     bool adjacent(int a, int b) const;
     /// The bound of the union of two nodes' normal cones (cos_half_angle -2: none).

@@ -1,5 +1,6 @@
 #include "geometry/self_intersection.h"
 
+#include "geometry/patch_outline.h"
 #include "geometry/triangle_intersection.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -26,17 +27,25 @@ struct Task {
 struct Output {
     std::vector<TrianglePair> pairs;
     CollisionStats stats;
+    PatchOutlines::Scratch scratch;
 };
 
 class Traversal {
 public:
+    /// @param cull  normal-cone culling
+    /// @param outlines  the nodes' outlines, which the culling then requires (nullptr: the cone
+    ///                  and the patch's connectivity alone, CpuCollisionOptions::outline_check)
     /// @param only_dirty  skip what involves no dirty node (TriangleBvh::refit_slots)
-    Traversal(const TriangleBvh& bvh, const float* positions, bool cull, bool only_dirty = false)
-        : bvh_(bvh), p_(positions), cull_(cull), only_dirty_(only_dirty) {}
+    Traversal(const TriangleBvh& bvh, const float* positions, bool cull, const PatchOutlines* outlines,
+              bool only_dirty = false)
+        : bvh_(bvh), p_(positions), cull_(cull), outlines_(outlines), only_dirty_(only_dirty) {}
 
-    bool culled(int n) const {
-        return (only_dirty_ && !bvh_.dirty(n)) ||
-               (cull_ && bvh_.connected(n) && bvh_.cone(n).cos_half_angle > kConeCull);
+    /// A disk whose normals lie within 90 degrees of an axis, and whose outline projected
+    /// along it does not cross itself, cannot meet itself.
+    bool culled(int n, Output& out) const {
+        if (only_dirty_ && !bvh_.dirty(n)) return true;
+        if (!cull_ || !bvh_.connected(n) || !(bvh_.cone(n).cos_half_angle > kConeCull)) return false;
+        return outlines_ == nullptr || outlines_->projects_simply(n, bvh_.cone(n).axis, p_, out.scratch);
     }
 
     void test_slots(int s, int t, Output& out) const {
@@ -56,7 +65,7 @@ public:
     }
 
     void self(int n, Output& out) const {
-        if (culled(n)) return;
+        if (culled(n, out)) return;
         const BvhNode& nd = bvh_.node(n);
         if (nd.leaf()) {
             for (int s = nd.begin; s < nd.end; ++s)
@@ -68,11 +77,14 @@ public:
         pair(nd.first, nd.first + 1, out);
     }
 
-    /// Two adjacent connected patches whose normals together stay within 90 degrees of one
-    /// axis form one such patch: no pair between them can intersect.
-    bool culled_pair(int a, int b) const {
+    /// Two adjacent disks whose normals together stay within 90 degrees of one axis, joined
+    /// into one disk whose outline does not cross itself along that axis: no pair between
+    /// them can intersect.
+    bool culled_pair(int a, int b, Output& out) const {
         if (only_dirty_ && !bvh_.dirty(a) && !bvh_.dirty(b)) return true;
         if (!cull_ || !bvh_.connected(a) || !bvh_.connected(b)) return false;
+        // Siblings' union is their parent, whose own test (self) failed: so would this one.
+        if (outlines_ != nullptr && bvh_.siblings(a, b)) return false;
         // Cheap necessary conditions before the merged cone: each cone within 90 degrees
         // and the axes less than 180 degrees apart.
         const NormalCone& ca = bvh_.cone(a);
@@ -80,14 +92,16 @@ public:
         if (!(ca.cos_half_angle > kConeCull) || !(cb.cos_half_angle > kConeCull) ||
             !(ca.axis[0] * cb.axis[0] + ca.axis[1] * cb.axis[1] + ca.axis[2] * cb.axis[2] > 0.0f))
             return false;
-        return bvh_.merged_cone(a, b).cos_half_angle > kConeCull && bvh_.adjacent(a, b);
+        const NormalCone merged = bvh_.merged_cone(a, b);
+        return merged.cos_half_angle > kConeCull && bvh_.adjacent(a, b) &&
+               (outlines_ == nullptr || outlines_->union_projects_simply(a, b, merged.axis, p_, out.scratch));
     }
 
     void pair(int a, int b, Output& out) const {
         const BvhNode& na = bvh_.node(a);
         const BvhNode& nb = bvh_.node(b);
         ++out.stats.node_pairs;
-        if (!boxes_overlap(na.lo, na.hi, nb.lo, nb.hi) || culled_pair(a, b)) return;
+        if (!boxes_overlap(na.lo, na.hi, nb.lo, nb.hi) || culled_pair(a, b, out)) return;
         if (na.leaf() && nb.leaf()) {
             for (int s = na.begin; s < na.end; ++s)
                 for (int t = nb.begin; t < nb.end; ++t) test_slots(s, t, out);
@@ -104,13 +118,14 @@ public:
 
     /// Splits the root's work into independent tasks for the threads.
     std::vector<Task> tasks(size_t wanted) const {
+        Output scratch;
         std::vector<Task> open{{0, 0}}, done;
         while (!open.empty() && open.size() + done.size() < wanted) {
             std::vector<Task> next;
             for (const Task& t : open) {
                 if (t.a == t.b) {
                     const BvhNode& nd = bvh_.node(t.a);
-                    if (culled(t.a)) continue;
+                    if (culled(t.a, scratch)) continue;
                     if (nd.leaf()) {
                         done.push_back(t);
                         continue;
@@ -121,7 +136,7 @@ public:
                 } else {
                     const BvhNode& na = bvh_.node(t.a);
                     const BvhNode& nb = bvh_.node(t.b);
-                    if (!boxes_overlap(na.lo, na.hi, nb.lo, nb.hi) || culled_pair(t.a, t.b)) continue;
+                    if (!boxes_overlap(na.lo, na.hi, nb.lo, nb.hi) || culled_pair(t.a, t.b, scratch)) continue;
                     if (na.leaf() && nb.leaf()) {
                         done.push_back(t);
                     } else if (na.leaf() || (!nb.leaf() && nb.end - nb.begin > na.end - na.begin)) {
@@ -169,7 +184,9 @@ public:
 private:
     const TriangleBvh& bvh_;
     const float* p_;
-    bool cull_, only_dirty_;
+    bool cull_;
+    const PatchOutlines* outlines_;
+    bool only_dirty_;
 };
 
 void finish(std::vector<TrianglePair>& pairs) {
@@ -182,6 +199,7 @@ void finish(std::vector<TrianglePair>& pairs) {
 void CpuCollisionBackend::set_triangles(const MeshTopology& mesh, const std::vector<int32_t>& triangles,
                                         const float* positions) {
     bvh_.build(mesh, triangles, positions, options_.leaf_size, options_.normal_cone_culling);
+    if (options_.normal_cone_culling && options_.outline_check) outlines_.build(bvh_);
 }
 
 namespace {
@@ -213,7 +231,7 @@ void CpuCollisionBackend::find_pairs(const float* positions, std::vector<Triangl
     stats_ = CollisionStats{};
     if (bvh_.empty()) return;
     bvh_.refit(positions);
-    run(Traversal(bvh_, positions, options_.normal_cone_culling), options_.parallel, out, stats_);
+    run(Traversal(bvh_, positions, options_.normal_cone_culling, outlines()), options_.parallel, out, stats_);
 }
 
 void CpuCollisionBackend::find_pairs_touching(const float* positions, const std::vector<int32_t>& changed,
@@ -233,7 +251,7 @@ void CpuCollisionBackend::find_pairs_touching(const float* positions, const std:
     // before has a moved triangle, so it lies below a dirty node.
     bvh_.refit_slots(positions, slots_);
     std::vector<TrianglePair> found;
-    run(Traversal(bvh_, positions, options_.normal_cone_culling, true), options_.parallel, found, stats_);
+    run(Traversal(bvh_, positions, options_.normal_cone_culling, outlines(), true), options_.parallel, found, stats_);
     // Keep the pairs with a changed triangle (a dirty leaf may also hold unchanged ones).
     std::vector<uint8_t>& flag = changed_flag_;
     flag.assign(bvh_.size(), 0);

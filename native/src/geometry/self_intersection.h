@@ -4,14 +4,16 @@
 // The query sits behind an abstract CollisionBackend, so that a GPU implementation (the
 // paper used CULLIDE on the GPU) can replace the CPU one without touching the folding code.
 // The CPU backend refits a TriangleBvh every frame and runs a BVH-against-itself traversal;
-// with normal-cone culling it skips every edge-connected patch whose normals all lie within
-// 90 degrees of one axis (such a patch cannot fold onto itself; Volino and Magnenat-Thalmann
-// 1994 — the contour condition of that theorem is not checked, which on skin patches of BVH
-// size is the usual practice; the tests compare against the query without culling). The
-// narrow phase is the exact triangle–triangle test.
+// with normal-cone culling it skips every patch that is a disk whose normals all lie within
+// 90 degrees of one axis and whose outline, projected along that axis, does not cross itself
+// (such a patch cannot meet itself; Volino and Magnenat-Thalmann 1994; patch_outline.h). The
+// narrow phase is the exact triangle–triangle test. Without the outline's test
+// (outline_check off) the culling is four times cheaper and can miss pairs (a ramp whose
+// normals point up while its last turn passes through its first).
 #pragma once
 
 #include "geometry/bvh.h"
+#include "geometry/patch_outline.h"
 #include "geometry/mesh_topology.h"
 
 #include <cstdint>
@@ -54,6 +56,10 @@ struct CpuCollisionOptions {
     bool normal_cone_culling = true;
     int leaf_size = 8;
     bool parallel = true;
+    /// With normal_cone_culling: cull only disks whose projected outline does not cross
+    /// itself (exact: every pair is found). Off: every connected patch within the cone is
+    /// culled, which can miss pairs.
+    bool outline_check = true;
 };
 
 class CpuCollisionBackend final : public CollisionBackend {
@@ -70,8 +76,13 @@ public:
     const TriangleBvh& bvh() const { return bvh_; }
 
 private:
+    const PatchOutlines* outlines() const {
+        return options_.normal_cone_culling && options_.outline_check ? &outlines_ : nullptr;
+    }
+
     CpuCollisionOptions options_;
     TriangleBvh bvh_;
+    PatchOutlines outlines_;
     CollisionStats stats_;
     std::vector<int32_t> slots_;
     std::vector<uint8_t> changed_flag_;
