@@ -6,6 +6,7 @@
 #include "geometry/mesh_topology.h"
 #include "geometry/patch_outline.h"
 #include "geometry/self_intersection.h"
+#include "measure/measure.h"
 
 #include <gtest/gtest.h>
 
@@ -178,6 +179,10 @@ TEST(NormalConeCulling, FindsTheBruteForcePairsOfARampPassingThroughItself) {
     no_cones.find_pairs(s.positions.data(), plain);
     EXPECT_EQ(plain, brute);
     EXPECT_GE(brute.size(), 8u);  // the strip's four cells across, crossed by the last turn
+    // sd_measure_intersections' count (the demo's and the reports' figures).
+    EXPECT_EQ(measure::intersecting_pairs(static_cast<int>(s.positions.size() / 3), s.positions.data(),
+                                          static_cast<int>(s.triangles.size() / 3), s.triangles.data(), {}),
+              static_cast<int64_t>(brute.size()));
     // What the cheaper culling without the outline's test (the folding's) gives up: the ramp
     // is one connected patch within the cone, culled whole.
     CpuCollisionBackend cone_only({true, 8, true, false});
