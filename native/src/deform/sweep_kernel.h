@@ -108,6 +108,7 @@ private:
     std::vector<BlendedVertex> blended_vertices_;
     std::vector<BlendEntry> blend_entries_;
     std::vector<int32_t> block_plain_, block_blended_;  // per block of vertices: its first in each list
+    std::vector<int32_t> block_batches_;                // per block of vertices: its first batch
     /// Planes (one float per frame-blended vertex each) of blend_planes_: the frames' sums and
     /// the blended position written per frame, the rest position and share constant.
     enum BlendPlane : int {
