@@ -72,12 +72,21 @@ Sheet ramp() {
         [](int, int) { return false; });
 }
 
+/// A sheet's BVH (with normal cones) and its nodes' outlines.
+struct Tree {
+    TriangleBvh bvh;
+    PatchOutlines outlines;
+    Tree(const Sheet& s, int leaf_size) {
+        bvh.build(s.mesh, s.all, s.positions.data(), leaf_size, true);
+        outlines.build(bvh);
+    }
+};
+
 TEST(PatchOutline, AFlatGridIsADiskWhoseOutlineIsItsBorder) {
     const Sheet s = flat(12, 7);
-    TriangleBvh bvh;
-    bvh.build(s.mesh, s.all, s.positions.data(), 8, true);
-    PatchOutlines outlines;
-    outlines.build(bvh);
+    Tree tree(s, 8);
+    const TriangleBvh& bvh = tree.bvh;
+    const PatchOutlines& outlines = tree.outlines;
     ASSERT_TRUE(outlines.is_disk(0));
     EXPECT_EQ(outlines.outline(0).size(), 2u * (12 + 7));
     PatchOutlines::Scratch scratch;
@@ -96,20 +105,18 @@ TEST(PatchOutline, AGridWithAHoleIsNoDisk) {
             return std::array<double, 3>{0.01 * i, 0.01 * j, 0.0};
         },
         [](int i, int j) { return i >= 4 && i < 6 && j >= 4 && j < 6; });
-    TriangleBvh bvh;
-    bvh.build(s.mesh, s.all, s.positions.data(), 8, true);
-    PatchOutlines outlines;
-    outlines.build(bvh);
+    Tree tree(s, 8);
+    const TriangleBvh& bvh = tree.bvh;
+    const PatchOutlines& outlines = tree.outlines;
     EXPECT_TRUE(bvh.connected(0));
     EXPECT_FALSE(outlines.is_disk(0));  // an annulus: V - E + F = 0
 }
 
 TEST(PatchOutline, TheRampsOutlineCrossesItselfSeenAlongItsNormals) {
     const Sheet s = ramp();
-    TriangleBvh bvh;
-    bvh.build(s.mesh, s.all, s.positions.data(), 8, true);
-    PatchOutlines outlines;
-    outlines.build(bvh);
+    Tree tree(s, 8);
+    const TriangleBvh& bvh = tree.bvh;
+    const PatchOutlines& outlines = tree.outlines;
     const NormalCone& root = bvh.cone(0);
     EXPECT_GT(root.cos_half_angle, 0.9f);  // the cone alone would cull the whole ramp
     PatchOutlines::Scratch scratch;
@@ -136,20 +143,18 @@ TEST(PatchOutline, TwoCellsMeetingAtACornerAreNoDisk) {
         },
         [](int i, int j) { return i != j; });
     for (int leaf : {1, 2, 4}) {
-        TriangleBvh bvh;
-        bvh.build(s.mesh, s.all, s.positions.data(), leaf, true);
-        PatchOutlines outlines;
-        outlines.build(bvh);
+        Tree tree(s, leaf);
+        const TriangleBvh& bvh = tree.bvh;
+        const PatchOutlines& outlines = tree.outlines;
         for (int n = 0; n < static_cast<int>(bvh.nodes().size()); ++n) EXPECT_FALSE(outlines.is_disk(n)) << n;
     }
 }
 
 TEST(PatchOutline, TwoHalvesOfAFlatGridJoinIntoADiskSeenSimply) {
     const Sheet s = flat(16, 4);
-    TriangleBvh bvh;
-    bvh.build(s.mesh, s.all, s.positions.data(), 8, true);
-    PatchOutlines outlines;
-    outlines.build(bvh);
+    Tree tree(s, 8);
+    const TriangleBvh& bvh = tree.bvh;
+    const PatchOutlines& outlines = tree.outlines;
     const int l = bvh.node(0).first;
     ASSERT_TRUE(outlines.is_disk(l) && outlines.is_disk(l + 1));
     PatchOutlines::Scratch scratch;
