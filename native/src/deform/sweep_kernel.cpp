@@ -297,19 +297,31 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const int32_t* const moved_at = moved_at_.data();
     const bool any_moved = maps.moved_count > 0;  // (else no vertex's moved_at is looked up)
     const auto needs_j = [&](int v) { return jacobians != nullptr || (any_moved && moved_at[v] >= 0); };
-    // The batches holding an influence of a displaced vertex, found again only when the set
-    // changes: a held shape key displaces the same vertices frame after frame, and looking
-    // through every influence for them took a tenth of a displaced frame.
+    // The runs of slots of displaced vertices in each batch, where alone J's turns are
+    // evaluated (a key on the head displaces a third of the vertices of the blocks it
+    // touches), found again only when the set changes: a held shape key displaces the same
+    // vertices frame after frame, and looking through every influence for them took a tenth
+    // of a displaced frame.
     if (any_moved && !(moved_seen_.size() == static_cast<size_t>(maps.moved_count) &&
                        std::equal(moved_seen_.begin(), moved_seen_.end(), maps.moved))) {
-        moved_seen_.clear();  // (found for no set until the flags are complete, should one throw)
-        batch_moved_.assign(batches_.size(), 0);
-        for (size_t i = 0; i < batches_.size(); ++i)
-            for (int32_t s = batches_[i].begin; s < batches_[i].end && !batch_moved_[i]; ++s)
-                batch_moved_[i] = moved_at[slot_vertex_[s]] >= 0;
+        moved_seen_.clear();  // (found for no set until the runs are complete, should one throw)
+        batch_runs_.assign(batches_.size() + 1, 0);
+        moved_runs_.clear();
+        for (size_t i = 0; i < batches_.size(); ++i) {
+            for (int32_t s = batches_[i].begin; s < batches_[i].end;) {
+                if (moved_at[slot_vertex_[s]] < 0) {
+                    ++s;
+                    continue;
+                }
+                int32_t e = s + 1;
+                while (e < batches_[i].end && moved_at[slot_vertex_[e]] >= 0) ++e;
+                moved_runs_.push_back({s, e});
+                s = e;
+            }
+            batch_runs_[i + 1] = static_cast<int32_t>(moved_runs_.size());
+        }
         moved_seen_.assign(maps.moved, maps.moved + maps.moved_count);
     }
-    const auto batch_needs_j = [&](size_t i) { return jacobians != nullptr || (any_moved && batch_moved_[i]); };
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
     SlotPlanes& pl = planes_;
     const FrameSlots slots{pl[kU],  pl[kW],  pl[kX],  pl[kY],  pl[kZ],  pl[kCos], pl[kSin], pl[kRx],
@@ -323,9 +335,13 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             else
                 evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.x, slots.y, slots.z,
                                slots.cos, slots.sin, slots.p4);
-            if (batch_needs_j(static_cast<size_t>(i)))
+            if (jacobians != nullptr)
                 evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.rx, slots.ry,
                                     slots.rz, slots.rw, turns_.data());
+            else if (any_moved)
+                for (int32_t k = batch_runs_[i]; k != batch_runs_[i + 1]; ++k)
+                    evaluate_turn_batch(half_spans[bt.half_span], moved_runs_[k].first, moved_runs_[k].second, slots.u,
+                                        slots.w, slots.rx, slots.ry, slots.rz, slots.rw, turns_.data());
         }
     };
     const float* rest = b.rest_positions.data();

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace sd {
@@ -85,13 +86,14 @@ private:
         kSlotPlanes
     };
     SlotPlanes planes_;
-    std::vector<float> turns_;                  // with J only: 9 per slot, w R(u) R_rest(u)^-1
-    std::vector<int32_t> slot_vertex_;          // the slot's vertex
-    std::vector<int32_t> moved_at_;             // per vertex: its displacement, or -1
-    std::vector<int32_t> moved_seen_;           // the displaced vertices batch_moved_ was found for
-    std::vector<char> batch_moved_;             // per batch: holds a displaced vertex's influence
-    std::vector<uint32_t> row_offsets_, rows_;  // vertex -> its sorted influence slots
-    std::vector<int32_t> plain_vertices_;       // vertices of one influence, or none blended
+    std::vector<float> turns_;                             // with J only: 9 per slot, w R(u) R_rest(u)^-1
+    std::vector<int32_t> slot_vertex_;                     // the slot's vertex
+    std::vector<int32_t> moved_at_;                        // per vertex: its displacement, or -1
+    std::vector<int32_t> moved_seen_;                      // the displaced vertices the runs below were found for
+    std::vector<int32_t> batch_runs_;                      // per batch: CSR rows of moved_runs_
+    std::vector<std::pair<int32_t, int32_t>> moved_runs_;  // runs of slots of displaced vertices
+    std::vector<uint32_t> row_offsets_, rows_;             // vertex -> its sorted influence slots
+    std::vector<int32_t> plain_vertices_;                  // vertices of one influence, or none blended
     /// A frame-blended vertex's influence: a sorted slot or a bone, with its weight.
     struct BlendEntry {
         uint32_t index;
