@@ -1,10 +1,11 @@
 // The per-vertex half of a frame, laid out for SIMD.
 //
 // Every sweep influence of every vertex evaluates w (C(u) + R(u) (x + Δa cosθ, y + Δb sinθ, z))
-// with C, R, Δa, Δb polynomials of its half-span. Sorting the influences by half-span turns
-// that into long loops over structure-of-arrays with the half-span's coefficients held
-// constant, which the compiler vectorises; a second pass sums each vertex's contributions
-// and its bone influences in a fixed order (results independent of the thread count).
+// with C, R, Δa, Δb polynomials of its half-span. Sorting the influences by block of
+// vertices, then half-span, turns that into loops over structure-of-arrays with the
+// half-span's coefficients held constant, which the compiler vectorises; the same task then
+// sums each of the block's vertices' contributions and bone influences in a fixed order
+// (results independent of the thread count; its slots still in its core's cache).
 // A vertex with more than one influence (two sweeps, or a sweep and a bone) is blended as
 // rigid frames (deform/frame_blend.h); its influences sit in batches of their own that also
 // give each influence's rotation, so vertices inside one sweep pay nothing for it.
