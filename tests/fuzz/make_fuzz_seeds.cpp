@@ -159,6 +159,27 @@ void anatomy_seeds() {
     }
 }
 
+void measure_seeds() {
+    // A sheet (mode 0) of 6 x 1 quads, per vertex dx, dy (int8 / 32), z (int8 / 16): flat, and
+    // folded back over itself from the fifth column on, passing down through the first part.
+    for (int folded = 0; folded < 2; ++folded) {
+        Out o;
+        o.put<uint8_t>(0).put<uint8_t>(5).put<uint8_t>(0);
+        const int8_t dx[7] = {0, 0, 0, 0, -48, -112, -125}, dz[7] = {0, 0, 0, 0, 8, -8, -16};
+        for (int j = 0; j < 2; ++j)
+            for (int i = 0; i < 7; ++i)
+                o.put<int8_t>(folded ? dx[i] : 0).put<int8_t>(0).put<int8_t>(folded ? dz[i] : 0);
+        write("fuzz_measure", folded ? "sheet_folded" : "sheet_flat", o.b);
+    }
+    // A soup (mode 1): two triangles crossing.
+    Out o;
+    o.put<uint8_t>(1).put<uint8_t>(3).put<uint8_t>(1);  // 6 points, 2 triangles
+    const int8_t pts[18] = {0, 0, 0, 4, 0, 0, 0, 4, 0, 1, 1, -2, 1, 1, 2, 2, 2, 0};
+    for (int8_t x : pts) o.put<int8_t>(x);
+    for (uint8_t x : {0, 1, 2, 3, 4, 5}) o.put<uint8_t>(x);
+    write("fuzz_measure", "soup_crossing", o.b);
+}
+
 void dmap_seeds() {
     // flips, theta cells, t cells, smoothing mode, N-1, per point: mode < 230 and x, y, z
     // (u8 / 110, int8 / 1000, int8 / 1000), snap.
@@ -378,6 +399,7 @@ int main(int argc, char** argv) {
     correction_seeds();
     anatomy_seeds();
     joint_volume_seeds();
+    measure_seeds();
     dmap_seeds();
     reader_seeds();
     return 0;
