@@ -256,8 +256,8 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     }
     // Blocks of kVertexBlock vertices: where each starts in both lists and in the batches.
     for (int first = 0;; first += kVertexBlock) {
-        const auto batch_at = std::find_if(batches_.begin(), batches_.end(),
-                                           [&](const Batch& bt) { return slot_vertex_[bt.begin] >= first; });
+        const auto batch_at = std::partition_point(batches_.begin(), batches_.end(),
+                                                   [&](const Batch& bt) { return slot_vertex_[bt.begin] < first; });
         block_batches_.push_back(static_cast<int32_t>(batch_at - batches_.begin()));
         const auto plain_at = std::lower_bound(plain_vertices_.begin(), plain_vertices_.end(), first);
         const auto blended_at = std::lower_bound(blended_vertices_.begin(), blended_vertices_.end(), first,

@@ -163,8 +163,9 @@ double point_segment_distance2(const double* x, const double* p, const double* q
 
 /// True when every directed edge (u0 w0 u1 w1, a closed loop) turns counter-clockwise about
 /// the loop's mean point and the loop goes round it once: the loop is star-shaped about that
-/// point, so no two of its edges meet except neighbours at their shared end. O(edges), and it
-/// holds for most outlines of a BVH node (compact patches).
+/// point, so no two of its edges meet except neighbours at their shared end. O(edges); it holds
+/// for regular patches (a flat grid's nodes), while on skin a few edges of a node's jagged
+/// outline mostly turn back (4 % of the tests passed it on the 80K body), leaving the sweep.
 bool star_shaped(const double* g, size_t count, double extent) {
     double c[2] = {0.0, 0.0};
     for (size_t i = 0; i < count; ++i) {
@@ -282,12 +283,12 @@ void PatchOutlines::build(const TriangleBvh& bvh) {
     const size_t N = nodes.size();
     offsets_.assign(N + 1, 0);
     edges_.clear();
-    vertex_count_.assign(N, -1);
     disk_.assign(N, 0);
     if (N == 0) return;
     const std::vector<uint8_t> good = regular_slots(bvh);
     std::vector<std::vector<uint64_t>> rows(N);
-    std::vector<uint8_t> kept(N, 0);  // the row and vertex count are known
+    std::vector<uint8_t> kept(N, 0);           // the row and vertex count are known
+    std::vector<int32_t> vertex_count(N, -1);  // per node: its distinct vertices
     std::vector<int32_t> ends, left_vertices, right_vertices;
     std::vector<uint64_t> keys;
     // Children follow their parents in the array: a reverse sweep goes bottom-up.
@@ -315,7 +316,7 @@ void PatchOutlines::build(const TriangleBvh& bvh) {
                 a = b;
             }
             std::sort(ends.begin(), ends.end());
-            vertex_count_[i] = static_cast<int32_t>(distinct(ends));
+            vertex_count[i] = static_cast<int32_t>(distinct(ends));
         } else {
             const int l = nd.first, r = nd.first + 1;
             if (!kept[l] || !kept[r]) continue;
@@ -323,12 +324,12 @@ void PatchOutlines::build(const TriangleBvh& bvh) {
             outline_vertices(rows[l].data(), rows[l].size(), left_vertices);
             outline_vertices(rows[r].data(), rows[r].size(), right_vertices);
             // Under regular_slots a vertex of both children lies on both outlines.
-            vertex_count_[i] = vertex_count_[l] + vertex_count_[r] -
-                               static_cast<int32_t>(common(left_vertices.data(), left_vertices.size(),
-                                                           right_vertices.data(), right_vertices.size()));
+            vertex_count[i] = vertex_count[l] + vertex_count[r] -
+                              static_cast<int32_t>(common(left_vertices.data(), left_vertices.size(),
+                                                          right_vertices.data(), right_vertices.size()));
         }
         if (row.size() > static_cast<size_t>(kMaxOutline)) {
-            vertex_count_[i] = -1;
+            vertex_count[i] = -1;
             std::vector<uint64_t>().swap(row);
             continue;
         }
@@ -337,7 +338,7 @@ void PatchOutlines::build(const TriangleBvh& bvh) {
         const int64_t F = nd.end - nd.begin, B = static_cast<int64_t>(row.size());
         outline_vertices(row.data(), row.size(), ends);
         disk_[i] = bvh.connected(i) && !row.empty() && (3 * F + B) % 2 == 0 && every_vertex_on_two_edges(ends) &&
-                   vertex_count_[i] - (3 * F + B) / 2 + F == 1;
+                   vertex_count[i] - (3 * F + B) / 2 + F == 1;
     }
     // Only the disks' outlines are ever tested.
     vertex_offsets_.assign(N + 1, 0);

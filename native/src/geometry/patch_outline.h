@@ -58,7 +58,6 @@ private:
     std::vector<uint64_t> edges_;           // outline edges by key, each with its direction (a loop)
     std::vector<uint32_t> vertex_offsets_;  // per node: CSR rows of vertices_
     std::vector<int32_t> vertices_;         // the outline's sorted vertices
-    std::vector<int32_t> vertex_count_;     // per node: its distinct vertices (-1: no outline kept)
     std::vector<uint8_t> disk_;
 };
 
