@@ -297,7 +297,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const int32_t* const moved_at = moved_at_.data();
     const bool any_moved = maps.moved_count > 0;  // (else no vertex's moved_at is looked up)
     const auto needs_j = [&](int v) { return jacobians != nullptr || (any_moved && moved_at[v] >= 0); };
-    // The runs of slots of displaced vertices in each batch, where alone J's turns are
+    // The runs of slots of displaced vertices in each batch of plain vertices, where alone J's turns are
     // evaluated (a key on the head displaces a third of the vertices of the blocks it
     // touches), found again only when the set changes: a held shape key displaces the same
     // vertices frame after frame, and looking through every influence for them took a tenth
@@ -308,7 +308,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         batch_runs_.assign(batches_.size() + 1, 0);
         moved_runs_.clear();
         for (size_t i = 0; i < batches_.size(); ++i) {
-            for (int32_t s = batches_[i].begin; s < batches_[i].end;) {
+            for (int32_t s = batches_[i].begin; s < batches_[i].end && !batches_[i].frames;) {
                 if (moved_at[slot_vertex_[s]] < 0) {
                     ++s;
                     continue;
@@ -330,11 +330,14 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const auto batches = [&](const int vertex_block) {
         for (int32_t i = block_batches_[vertex_block]; i != block_batches_[vertex_block + 1]; ++i) {
             const Batch& bt = batches_[i];
-            if (bt.frames)
+            // A blended vertex's J is its blended frame's turn: its slots' turns are evaluated
+            // only where its frames cancel (turn_of, below).
+            if (bt.frames) {
                 evaluate_frame_batch(half_spans[bt.half_span], bt.begin, bt.end, slots);
-            else
-                evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.x, slots.y, slots.z,
-                               slots.cos, slots.sin, slots.p4);
+                continue;
+            }
+            evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.x, slots.y, slots.z,
+                           slots.cos, slots.sin, slots.p4);
             if (jacobians != nullptr)
                 evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.rx, slots.ry,
                                     slots.rz, slots.rw, turns_.data());
@@ -446,6 +449,15 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                                {in(position_x), in(position_x + 1), in(position_x + 2)},
                                in(norm2_plane),
                                {in(turn_x), in(turn_x + 1), in(turn_x + 2), in(turn_x + 3)}};
+    // The turn of a blended vertex's slot `s`, evaluated on demand (into turns_, whose slot s
+    // only the task of s's block touches).
+    const auto turn_of = [&](const uint32_t s) {
+        const auto bt = std::partition_point(batches_.begin(), batches_.end(),
+                                             [&](const Batch& x) { return x.end <= static_cast<int32_t>(s); });
+        evaluate_turn_batch(half_spans[bt->half_span], static_cast<int32_t>(s), static_cast<int32_t>(s) + 1, slots.u,
+                            slots.w, slots.rx, slots.ry, slots.rz, slots.rw, turns_.data());
+        return &turns_[9 * static_cast<size_t>(s)];
+    };
     const auto blended_block = [&](const int k0, const int k1) {
         // 1. Each vertex's frames summed (FrameBlend), into planes.
         for (int k = k0; k != k1; ++k) {
@@ -506,7 +518,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                     for (int c = 0; c < 9; ++c) j[c] = 0.0f;
                 for (const BlendEntry* f = first; f != bones_first; ++f) {
                     p += load4(p4 + 4 * static_cast<size_t>(f->index));
-                    if (j) add_slot_turn(1.0f, &turns_[9 * static_cast<size_t>(f->index)], j);
+                    if (j) add_slot_turn(1.0f, turn_of(f->index), j);
                 }
                 float all[3] = {0.0f, 0.0f, 0.0f};
                 for (const BlendEntry* f = bones_first; f != end; ++f) {
