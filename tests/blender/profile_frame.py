@@ -3,7 +3,7 @@
 measure_frame.py's posing loop (the product's set-up: the fitted rig, the replaced Armature
 modifier switched off but keeping its object), and the add-on's handler alone. Prints the
 profile, then the median time of each part of the handler timed alone (no profiler's overhead:
-the core's call, the output check, the offsets (one pass, or offsets and scatter apart), the carrier's write); never
+the core's call (with the output check and the offsets' sums: one pass), the carrier's write); never
 fails on speed.
 
     BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
@@ -61,6 +61,7 @@ def print_parts(body, arm, pose_list):
         (frame, "_evaluate_entry", "the object's frame"),
         (native.Deformer, "deform", "core: sd_deform"),
         (native.Deformer, "deform_displaced", "core: sd_deform_displaced"),
+        (native.Deformer, "deform_frame", "core: sd_deform_frame (and check and sums)"),
         (frame, "_checked_output", "output check"),
         (native, "compose_offsets", "offsets (and the keys' J d), one pass"),
         (arrays, "offsets_into", "offsets"),
@@ -86,10 +87,10 @@ def print_parts(body, arm, pose_list):
         for owner, name, f in originals:
             setattr(owner, name, f)
     print(f"\n==== {len(pose_list)} pose changes, each part alone (median ms) ====")
-    print(f"  {'pose change, evaluated':28s} {1e3 * np.median(posing):.3f}")
+    print(f"  {'pose change, evaluated':44s} {1e3 * np.median(posing):.3f}")
     for _, _, label in parts:
         if spent[label]:
-            print(f"  {label:28s} {1e3 * np.median(spent[label]):.3f}  ({len(spent[label])} calls)")
+            print(f"  {label:44s} {1e3 * np.median(spent[label]):.3f}  ({len(spent[label])} calls)")
 
 
 if __name__ == "__main__":

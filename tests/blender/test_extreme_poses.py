@@ -116,10 +116,22 @@ class Exploding:
     def deform(self, pose, out=None):
         r = self.inner.deform(pose, out)
         if bpy.context.scene.frame_current in self.frames:
-            rng = np.random.default_rng(bpy.context.scene.frame_current)
-            c = r.mean(axis=0)
-            r[...] = c + 2.0 * (r - c) + rng.normal(scale=0.2, size=r.shape).astype(np.float32)
+            self._explode(r)
         return r
+
+    def deform_frame(self, pose, moved, displacements, out, turned, check, ratio_limit, *composition):
+        """The one-pass frame (sd_deform_frame), its output checked again after the shards."""
+        verdict = self.inner.deform_frame(pose, moved, displacements, out, turned, check, ratio_limit, *composition)
+        if bpy.context.scene.frame_current not in self.frames or check is None:
+            return verdict
+        self._explode(out)
+        return check.run(out, pose, ratio_limit)
+
+    @staticmethod
+    def _explode(r):
+        rng = np.random.default_rng(bpy.context.scene.frame_current)
+        c = r.mean(axis=0)
+        r[...] = c + 2.0 * (r - c) + rng.normal(scale=0.2, size=r.shape).astype(np.float32)
 
     def __getattr__(self, name):
         return getattr(self.inner, name)

@@ -104,6 +104,34 @@ def _checked_output(e, obj, arm, deformed, pose, depsgraph):
         e.output_check = None
         print(f"Sweep Deform: '{obj.name}': frames are not checked: {e.output_check_error}")
         return deformed, False
+    return _judged(e, obj, check, deformed, pose, depsgraph, ratio, vertex, bone)
+
+
+def _deform_frame(e, obj, arm, pose, moves, whole, depsgraph):
+    """The frame in one pass of the core (sd_deform_frame): the deformation (the keys'
+    displacements `moves` turned, if any), its output check and the offsets' sums, for a mesh
+    in the armature's space. Returns (deformed, turned, composed, checked) as the separate
+    steps would give them: when the check refuses the frame, its linear blend skinning, and
+    composed None (it is composed again from those)."""
+    check = _output_check(e, obj, arm)
+    core_check = check.core if check is not None and math.isfinite(output_check.RATIO_LIMIT) else None
+    moved, d = moves if moves is not None else (None, None)
+    turned = np.empty_like(d) if moves is not None else None
+    composed = e.positions_buffer() if whole else e.offsets
+    beyond, ratio, vertex, bone = e.deformer.deform_frame(
+        pose, moved, d, e.deformer.positions, turned, core_check, output_check.RATIO_LIMIT, e.rest,
+        e.mesh_rest(obj) if whole else None, moves is not None and not whole, composed)
+    deformed = e.deformer.positions
+    if check is None:
+        return deformed, turned, composed, False
+    if beyond == 0:
+        vertex, bone = -1, -1
+    checked_positions, checked = _judged(e, obj, check, deformed, pose, depsgraph, float(ratio), vertex, bone)
+    return checked_positions, turned, composed if checked_positions is deformed else None, checked
+
+
+def _judged(e, obj, check, deformed, pose, depsgraph, ratio, vertex, bone):
+    """_checked_output's verdict on the check's worst vertex (-1: none beyond the bound)."""
     if vertex < 0:
         e.warning = ""
         return deformed, math.isfinite(output_check.RATIO_LIMIT)
@@ -267,6 +295,9 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.settings = settings
     global core_calls
     core_calls += 1
+    composed = None  # the offsets (whole: positions) when the core's pass made them
+    if moves is not None:
+        moved, d = moves
     try:
         frames = None
         if e.anatomy is not None:
@@ -277,9 +308,10 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
             packed = e.packed_buffer(obj)
             frames = packed[n:4 * n].reshape(3, n, 3)
             deformed, _ = e.deformer.deform_frames(pose, e.deformer.positions, frames)
+        elif to_mesh is None:  # the deformation, its check and the sums below in one pass, to the bit
+            deformed, turned, composed, checked = _deform_frame(e, obj, arm, pose, moves, whole, depsgraph)
         elif moves is not None:
-            moved, d = moves
-            d_armature = d if to_mesh is None else np.matmul(d, np.asarray(linear, np.float32).T)
+            d_armature = np.matmul(d, np.asarray(linear, np.float32).T)
             deformed, turned = e.deformer.deform_displaced(pose, moved, d_armature, e.deformer.positions,
                                                            np.empty_like(d))
         else:
@@ -289,10 +321,13 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refuse(obj, f"Unusable pose: {why}: {KEPT}")
         e.refused_key = key
         return False
-    deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
+    if frames is not None or e.anatomy is not None or to_mesh is not None:
+        deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     if whole:
         e.whole_moves = e.moves_copy() if moves is not None else None  # (a render may mix other values)
-    if to_mesh is None:  # the sums below in one pass of the core, to the bit
+    if composed is not None:
+        offsets = composed
+    elif to_mesh is None:  # the sums below in one pass of the core, to the bit
         offsets = native.compose_offsets(deformed, e.rest, e.mesh_rest(obj) if whole else None,
                                          moved if moves is not None else None,
                                          turned if moves is not None else None,

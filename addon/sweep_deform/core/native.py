@@ -27,7 +27,7 @@ import numpy as np
 #: The library file name this add-on version ships and loads (never the bare SONAME).
 LIBRARY_FILE = "libsweepdeform.so.0.1.0"
 #: The ``SD_ABI_VERSION`` this binding was written against.
-ABI_VERSION = 5
+ABI_VERSION = 6
 
 SD_OK = 0
 STATUS_NAMES = {
@@ -181,6 +181,9 @@ SIGNATURES = {
     "sd_mix_shape_keys": (Status, [c_int32, F32, c_int32, F32, c_int32, I32, F32, P_INT32, I32_OUT,
                                    F32_OUT]),
     "sd_compose_offsets": (Status, [c_int32, F32, F32, F32, c_int32, I32, F32, F32, F32_OUT]),
+    "sd_deform_frame": (Status, [DeformerP, c_int32, F32, c_int32, c_int32, I32, F32, F32_OUT, F32_OUT,
+                                 OutputCheckP, c_float, P_INT32, P_FLOAT, P_INT32, P_INT32, F32, F32, c_int32,
+                                 F32_OUT]),
     "sd_deformer_get_volumes": (Status, [DeformerP, c_int32, F64_OUT, F64_OUT, F64_OUT]),
     "sd_deformer_get_volume_iterations": (Status, [DeformerP, c_int32, I32_OUT]),
     # the output check (issue 15)
@@ -628,6 +631,7 @@ class Deformer(_Handle):
         self._rest = np.empty(self.sweep_count, np.float64)
         self._before = np.empty(self.sweep_count, np.float64)
         self._after = np.empty(self.sweep_count, np.float64)
+        self._verdict = None  # deform_frame's outputs, made at its first call
 
     def set_volume_preservation(self, enabled, strength=1.0):
         _call("sd_deformer_set_volume_preservation", self.ptr, 1 if enabled else 0, float(strength))
@@ -708,6 +712,34 @@ class Deformer(_Handle):
         _call("sd_deform_displaced", self.ptr, self.bone_count, np.ascontiguousarray(pose), self.vertex_count, m,
               np.ascontiguousarray(moved, dtype=np.int32), np.ascontiguousarray(displacements), out, turned)
         return out, turned
+
+    def deform_frame(self, pose, moved, displacements, out, turned, check, ratio_limit, rest, base, subtract,
+                     composed):
+        """sd_deform_frame: deform_displaced (moved None: deform) into `out` and `turned`, and
+        in the same pass `check` (an OutputCheck, or None) against ratio_limit and the sums of
+        compose_offsets into `composed` (base + (out − rest), then += turned, − displacements
+        when `subtract`). Returns the check's (beyond, worst ratio, vertex, bone), (0, 0.0, -1,
+        -1) without one."""
+        if pose.dtype != np.float32 or pose.size != 16 * self.bone_count:
+            raise ValueError(f"pose must be {16 * self.bone_count} float32 values")
+        m = 0 if moved is None else len(moved)
+        V = self.vertex_count
+        for name, a in (("out", out), ("rest", rest), ("base", base), ("composed", composed)):
+            if a is not None and a.size != 3 * V:
+                raise ValueError(f"{name} must hold {3 * V} float32 values")
+        if m and (displacements.size != 3 * m or turned.size != 3 * m or displacements.dtype != np.float32):
+            raise ValueError(f"displacements and turned must hold {3 * m} float32 values")
+        if check is not None and (check.vertex_count != V or check.bone_count != self.bone_count):
+            raise ValueError("the output check was made for another mesh or rig")
+        if self._verdict is None:
+            self._verdict = (ctypes.c_int32(), ctypes.c_float(), ctypes.c_int32(), ctypes.c_int32())
+            self._verdict_refs = tuple(ctypes.byref(x) for x in self._verdict)
+        _call("sd_deform_frame", self.ptr, self.bone_count, np.ascontiguousarray(pose), V, m,
+              None if not m else np.ascontiguousarray(moved, dtype=np.int32),
+              None if not m else np.ascontiguousarray(displacements), out, turned if m else None,
+              None if check is None else check.ptr, float(ratio_limit), *self._verdict_refs, rest, base,
+              1 if subtract else 0, composed)
+        return tuple(x.value for x in self._verdict)
 
     def volumes(self):
         """(rest, before, after) float64 #S of the last frame."""

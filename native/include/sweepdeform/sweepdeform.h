@@ -53,8 +53,9 @@ extern "C" {
 /* Bumped whenever a signature or a struct layout of this header changes, or functions are
  * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
  * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced, sd_mix_shape_keys;
- * 5: sd_compose_offsets, sd_deformer_serialize_joint_volumes, sd_deformer_load_joint_volumes). */
-#define SD_ABI_VERSION 5
+ * 5: sd_compose_offsets, sd_deformer_serialize_joint_volumes, sd_deformer_load_joint_volumes;
+ * 6: sd_deform_frame). */
+#define SD_ABI_VERSION 6
 
 typedef enum sd_status {
     SD_OK = 0,
@@ -358,6 +359,29 @@ SD_API sd_status sd_output_check_run(const sd_output_check* check, int32_t bone_
  */
 SD_API sd_status sd_output_check_linear_blend(const sd_output_check* check, int32_t bone_count, const float* pose,
                                               int32_t vertex_count, float* out_positions);
+
+/*
+ * A frame for the caller's mesh in one parallel pass: sd_deform_displaced (moved_count 0:
+ * sd_deform), and as each block of vertices is written, while it is in cache, the output
+ * check of its positions and sd_compose_offsets' sums:
+ *   out_composed[v] = base[v] + (out_positions[v] - rest[v])   (base NULL: without it)
+ *   then out_composed[moved[i]] += out_turned[i] - displacements[i]
+ *                                  (subtract_displacements 0: += out_turned[i])
+ * The results are those of sd_deform_displaced, sd_output_check_run (ratio_limit, no
+ * out_ratios) and sd_compose_offsets called one after the other, to the bit (each step in the
+ * same floating-point mode as the separate call's).
+ *  check           NULL: no check (out_beyond 0, out_worst_ratio 0, out_worst_vertex and
+ *                  out_worst_bone -1); else made for the same vertex and bone counts
+ *  rest, base      #V*3 (base may be NULL); out_composed #V*3 (NULL: nothing composed, rest
+ *                  and base unused); out_composed may be rest or base, not out_positions
+ * Each output pointer to a verdict may be NULL. On a refused argument nothing is written.
+ */
+SD_API sd_status sd_deform_frame(sd_deformer* deformer, int32_t bone_count, const float* pose, int32_t vertex_count,
+                                 int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
+                                 float* out_positions, float* out_turned, const sd_output_check* check,
+                                 float ratio_limit, int32_t* out_beyond, float* out_worst_ratio,
+                                 int32_t* out_worst_vertex, int32_t* out_worst_bone, const float* rest,
+                                 const float* base, int32_t subtract_displacements, float* out_composed);
 
 /* ---- measurements (reports and tests) ---------------------------------------------- */
 

@@ -7,6 +7,7 @@
 
 #include "bind/bind.h"
 #include "deform/deform.h"
+#include "deform/output_check.h"
 #include "math/math_types.h"
 #include "rig/rig.h"
 
@@ -28,6 +29,9 @@ struct sd_binding {
 };
 struct sd_deformer {
     std::unique_ptr<sd::Deformer> deformer;
+};
+struct sd_output_check {
+    std::unique_ptr<sd::OutputCheck> check;
 };
 
 namespace sd::abi {

@@ -8,10 +8,6 @@
 #include <memory>
 #include <string>
 
-struct sd_output_check {
-    std::unique_ptr<sd::OutputCheck> check;
-};
-
 namespace {
 
 using sd::abi::fail;

@@ -517,6 +517,17 @@ void Deformer::deform_displaced(const float* pose, int32_t count, const int32_t*
     deform_with(pose, out, maps);
 }
 
+void Deformer::deform_in_blocks(const float* pose, int32_t count, const int32_t* moved, const float* displacements,
+                                float* out, float* turned, const std::function<void(int32_t block)>& after_block) {
+    SweepKernel::LocalMaps maps;
+    maps.moved_count = count;
+    maps.moved = moved;
+    maps.displacements = displacements;
+    maps.turned = turned;
+    maps.after_block = &after_block;
+    deform_with(pose, out, maps);
+}
+
 void Deformer::deform_with(const float* pose, float* out, const SweepKernel::LocalMaps& maps) {
     const std::lock_guard<std::recursive_mutex> guard(mutex_);
     maps_ = maps;

@@ -10,6 +10,7 @@
 #include "deform/sweep_kernel.h"
 
 #include <array>
+#include <functional>
 #include <mutex>
 #include <vector>
 
@@ -95,6 +96,13 @@ public:
     /// out + turned. The same J as deform_frames, assembled for those vertices only.
     void deform_displaced(const float* pose, int32_t count, const int32_t* moved, const float* displacements,
                           float* out, float* turned);
+
+    /// deform_displaced (count 0: deform), calling `after_block` with the index of each block
+    /// of SweepKernel::kVertexBlock vertices as soon as its positions and J d are written, by
+    /// the thread that wrote them (sd_deform_frame checks and composes each block while it
+    /// is in that core's cache).
+    void deform_in_blocks(const float* pose, int32_t count, const int32_t* moved, const float* displacements,
+                          float* out, float* turned, const std::function<void(int32_t block)>& after_block);
 
     const Rig& rig() const { return rig_; }
     const Binding& binding() const { return binding_; }

@@ -17,4 +17,9 @@ void compose_frame_offsets(int32_t vertex_count, const float* positions, const f
                            int32_t moved_count, const int32_t* moved, const float* turned, const float* displacements,
                            float* out);
 
+/// compose_frame_offsets for the vertices [begin, end) alone, on the calling thread.
+void compose_frame_offsets_range(int32_t begin, int32_t end, const float* positions, const float* rest,
+                                 const float* base, int32_t moved_count, const int32_t* moved, const float* turned,
+                                 const float* displacements, float* out);
+
 }  // namespace sd

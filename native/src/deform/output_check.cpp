@@ -210,62 +210,73 @@ SD_FILTER_CLONES int32_t count_past(int32_t begin, int32_t end, const float* __r
 
 }  // namespace
 
-OutputCheck::Verdict OutputCheck::check(const float* pose, const float* positions, double ratio_limit,
-                                        float* ratios) const {
-    if (!positions) throw InvalidInput("positions is NULL");
+/// A frame's posed bones and limits, as the exact test and the filter read them.
+struct OutputCheck::Frame::Posed {
+    std::vector<Segment> bones;
+    FloatSegments fast;
+    double limit2;
+    float fast_limit2;
+    bool use_filter;
+};
+
+OutputCheck::Frame::Frame(const OutputCheck& check, const float* pose, double ratio_limit, float* ratios,
+                          int32_t block_size)
+    : check_(check), ratios_(ratios), block_size_(block_size) {
     if (!(ratio_limit > 0.0) || !std::isfinite(ratio_limit)) throw InvalidInput("ratio_limit must be finite and > 0");
-    require_matrices(pose, bone_count(), "pose");
-    const std::vector<Segment> posed = segments(pose, lengths_);
-    const FloatSegments fast(posed);
+    if (block_size < 1) throw InvalidInput("block_size must be >= 1");
+    require_matrices(pose, check.bone_count(), "pose");
+    std::vector<Segment> posed = segments(pose, check.lengths_);
+    FloatSegments fast(posed);
     const double limit2 = ratio_limit * ratio_limit;
-    const float fast_limit2 = static_cast<float>(limit2);
     // (a limit below 1e-3, which asks for the frame's largest ratios, goes to the exact test)
-    const bool use_filter = !ratios && ratio_limit >= 1e-3;
-    // Two passes per chunk of kGrain vertices. The filter (float, one bone) passes a chunk
-    // whose every vertex is within the limit of its bone nearer at rest, by a margin (its bound
-    // is kFilterMargin below the true one), so float rounding never passes a vertex the exact
-    // test would not: within by that bone means within, the nearer of the two being nearer
-    // still. Any other chunk, and every chunk when `ratios` is asked, gets the exact test:
-    // double, both bones, a vertex beyond when !(d^2 <= limit^2 rest^2) (NaN too), its ratio
-    // sqrt(d^2 / rest^2). Per-chunk verdicts are combined in chunk order: deterministic.
-    const int32_t V = vertex_count();
-    const int32_t chunks = (V + kGrain - 1) / kGrain;
-    std::vector<Verdict> found(static_cast<size_t>(chunks));
-    tbb::this_task_arena::isolate([&] {
-        tbb::parallel_for(tbb::blocked_range<int32_t>(0, chunks, 1), [&](const tbb::blocked_range<int32_t>& r) {
-            const FlushDenormals flush;  // a frame's check (flush_denormals.h)
-            for (int32_t c = r.begin(); c != r.end(); ++c) {
-                const int32_t begin = c * kGrain, end = std::min(V, begin + kGrain);
-                if (use_filter &&
-                    count_past(begin, end, positions, near_.data(), filter_rest2_.data(), fast, fast_limit2) == 0)
-                    continue;
-                Verdict& chunk = found[static_cast<size_t>(c)];
-                for (int32_t v = begin; v != end; ++v) {
-                    const Bones& b = bones_[v];
-                    if (b.near < 0) {
-                        if (ratios) ratios[v] = 0.0f;
-                        continue;
-                    }
-                    const float* p = positions + 3 * static_cast<size_t>(v);
-                    const dvec3 q(p[0], p[1], p[2]);
-                    double d2 = distance2(q, posed[b.near]);
-                    if (b.far != b.near) {
-                        const double other = distance2(q, posed[b.far]);
-                        if (other < d2) d2 = other;  // a NaN d2 stays NaN
-                    }
-                    double ratio = d2 == 0.0 ? 0.0 : std::sqrt(d2 / b.rest2);
-                    if (!std::isfinite(ratio)) ratio = std::numeric_limits<double>::infinity();  // NaN too
-                    if (ratios) ratios[v] = static_cast<float>(ratio);
-                    if (d2 <= limit2 * b.rest2) continue;
-                    ++chunk.beyond;
-                    if (chunk.worst_vertex < 0 || ratio > chunk.worst_ratio)
-                        chunk.worst_ratio = ratio, chunk.worst_vertex = v, chunk.worst_bone = heaviest_[v];
-                }
-            }
-        });
-    });
+    posed_.reset(new Posed{std::move(posed), std::move(fast), limit2, static_cast<float>(limit2),
+                           !ratios && ratio_limit >= 1e-3});
+    const int32_t V = check.vertex_count();
+    found_.resize(static_cast<size_t>((V + block_size - 1) / block_size));
+}
+
+OutputCheck::Frame::~Frame() = default;
+
+// Two passes per block. The filter (float, one bone) passes a block whose every vertex is
+// within the limit of its bone nearer at rest, by a margin (its bound is kFilterMargin below
+// the true one), so float rounding never passes a vertex the exact test would not: within by
+// that bone means within, the nearer of the two being nearer still. Any other block, and
+// every block when `ratios` is asked, gets the exact test: double, both bones, a vertex
+// beyond when !(d^2 <= limit^2 rest^2) (NaN too), its ratio sqrt(d^2 / rest^2).
+void OutputCheck::Frame::range(const float* positions, int32_t block) {
+    const OutputCheck& c = check_;
+    const Posed& p = *posed_;
+    const int32_t begin = block * block_size_, end = std::min(c.vertex_count(), begin + block_size_);
+    if (p.use_filter &&
+        count_past(begin, end, positions, c.near_.data(), c.filter_rest2_.data(), p.fast, p.fast_limit2) == 0)
+        return;
+    Verdict& chunk = found_[static_cast<size_t>(block)];
+    for (int32_t v = begin; v != end; ++v) {
+        const Bones& b = c.bones_[v];
+        if (b.near < 0) {
+            if (ratios_) ratios_[v] = 0.0f;
+            continue;
+        }
+        const float* at = positions + 3 * static_cast<size_t>(v);
+        const dvec3 q(at[0], at[1], at[2]);
+        double d2 = distance2(q, p.bones[b.near]);
+        if (b.far != b.near) {
+            const double other = distance2(q, p.bones[b.far]);
+            if (other < d2) d2 = other;  // a NaN d2 stays NaN
+        }
+        double ratio = d2 == 0.0 ? 0.0 : std::sqrt(d2 / b.rest2);
+        if (!std::isfinite(ratio)) ratio = std::numeric_limits<double>::infinity();  // NaN too
+        if (ratios_) ratios_[v] = static_cast<float>(ratio);
+        if (d2 <= p.limit2 * b.rest2) continue;
+        ++chunk.beyond;
+        if (chunk.worst_vertex < 0 || ratio > chunk.worst_ratio)
+            chunk.worst_ratio = ratio, chunk.worst_vertex = v, chunk.worst_bone = c.heaviest_[v];
+    }
+}
+
+OutputCheck::Verdict OutputCheck::Frame::verdict() const {
     Verdict result;
-    for (const Verdict& chunk : found) {
+    for (const Verdict& chunk : found_) {
         result.beyond += chunk.beyond;
         if (chunk.worst_vertex >= 0 && (result.worst_vertex < 0 || chunk.worst_ratio > result.worst_ratio)) {
             result.worst_ratio = chunk.worst_ratio;
@@ -274,6 +285,20 @@ OutputCheck::Verdict OutputCheck::check(const float* pose, const float* position
         }
     }
     return result;
+}
+
+OutputCheck::Verdict OutputCheck::check(const float* pose, const float* positions, double ratio_limit,
+                                        float* ratios) const {
+    if (!positions) throw InvalidInput("positions is NULL");
+    Frame frame(*this, pose, ratio_limit, ratios, kGrain);
+    const int32_t chunks = (vertex_count() + kGrain - 1) / kGrain;
+    tbb::this_task_arena::isolate([&] {
+        tbb::parallel_for(tbb::blocked_range<int32_t>(0, chunks, 1), [&](const tbb::blocked_range<int32_t>& r) {
+            const FlushDenormals flush;  // a frame's check (flush_denormals.h)
+            for (int32_t c = r.begin(); c != r.end(); ++c) frame.range(positions, c);
+        });
+    });
+    return frame.verdict();
 }
 
 void OutputCheck::linear_blend(const float* pose, float* out) const {

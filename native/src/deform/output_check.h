@@ -13,6 +13,7 @@
 #include "math/math_types.h"
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace sd {
@@ -42,6 +43,29 @@ public:
     /// bone (the nearer of the two can only be nearer): one float squared distance per vertex,
     /// vectorised, for most frames; other chunks get the exact test (double, both bones).
     Verdict check(const float* pose, const float* positions, double ratio_limit, float* ratios) const;
+
+    /// One frame's check in pieces, for a caller that checks each block of vertices as it
+    /// writes them (sd_deform_frame): made once per frame, then range() on blocks of
+    /// `block_size` vertices from any threads, each block once; verdict() combines the
+    /// blocks in order (the result does not depend on the threads or their order).
+    /// check() is this with blocks of its own.
+    class Frame {
+    public:
+        /// As check()'s arguments; @throws InvalidInput as check() does.
+        Frame(const OutputCheck& check, const float* pose, double ratio_limit, float* ratios, int32_t block_size);
+        ~Frame();
+        /// Checks block `block`: vertices [block x block_size, min(V, (block + 1) x block_size)).
+        void range(const float* positions, int32_t block);
+        Verdict verdict() const;
+
+    private:
+        struct Posed;
+        const OutputCheck& check_;
+        std::unique_ptr<const Posed> posed_;
+        float* ratios_;
+        int32_t block_size_;
+        std::vector<Verdict> found_;  // per block
+    };
 
     /// The linear blend skinning of the rest positions by `pose` (#B*16) into `out` (#V*3):
     /// the fallback shown for a frame beyond the bound. A vertex without skin weights stays

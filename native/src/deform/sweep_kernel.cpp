@@ -15,7 +15,6 @@ namespace sd {
 
 namespace {
 constexpr int32_t kBatch = 2048;
-constexpr int kVertexBlock = 2048;  // vertices per task of the vertices' pass
 
 /// w (C(u) + R(u) l) for influences [begin, end) of one half-span. Written as one flat loop
 /// over arrays with loop-invariant coefficients, no branches: it vectorises.
@@ -535,11 +534,15 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     // the same cache lines of `out`.
     const int blocks = static_cast<int>(block_plain_.size()) - 1;
     tbb::parallel_for(tbb::blocked_range<int>(0, blocks, 1), [&](const tbb::blocked_range<int>& r) {
-        const FlushDenormals flush;
         for (int i = r.begin(); i != r.end(); ++i) {
-            batches(i);
-            plain_block(block_plain_[i], block_plain_[i + 1]);
-            blended_block(block_blended_[i], block_blended_[i + 1]);
+            {
+                const FlushDenormals flush;
+                batches(i);
+                plain_block(block_plain_[i], block_plain_[i + 1]);
+                blended_block(block_blended_[i], block_blended_[i + 1]);
+            }
+            // (in the thread's own floating-point mode, as the caller's separate passes would be)
+            if (maps.after_block) (*maps.after_block)(i);
         }
     });
 }

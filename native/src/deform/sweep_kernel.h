@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <utility>
 #include <vector>
 
@@ -33,6 +34,9 @@ struct HalfSpanKernel {
 
 class SweepKernel {
 public:
+    /// Vertices per task of the vertices' pass: block b is [b kVertexBlock, (b + 1) kVertexBlock).
+    static constexpr int kVertexBlock = 2048;
+
     SweepKernel() = default;
     /// @param span_base  first span of each sweep in the frame's half-span array (which holds
     ///                   2 entries per span: halves u < 0.5 and u >= 0.5)
@@ -50,6 +54,9 @@ public:
         const int32_t* moved = nullptr;        // #M their indices
         const float* displacements = nullptr;  // #M*3 their displacements d, and then
         float* turned = nullptr;               // #M*3 receives J d
+        /// Called with each block's index by the task that wrote its positions (and J d),
+        /// while they are in its core's cache (sd_deform_frame's check and sums).
+        const std::function<void(int32_t block)>* after_block = nullptr;
     };
 
     /// out[v] = Σ sweep contributions + Σ_b w_b M_b rest[v] for a vertex of one influence, the

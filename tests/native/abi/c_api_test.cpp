@@ -427,6 +427,135 @@ TEST(CApi, ComposedOffsetsAreTheSumsMadeOneArrayAtATime) {
     for (float o : out) ASSERT_EQ(o, 42.0f) << "output touched by a failed call";
 }
 
+TEST(CApi, AFrameInOnePassIsTheThreeCallsToTheBit) {
+    // sd_deform_frame against sd_deform_displaced, sd_output_check_run and sd_compose_offsets
+    // called one after the other: a denser arm (several of the kernel's blocks of 2048
+    // vertices), its tip also on the hand bone (blended vertices), the forearm bent 70°, moved
+    // vertices either side of the blocks' edges.
+    AbiArm arm;
+    arm.mesh.clear();
+    for (int r = 0; r <= 400; ++r)
+        for (int s = 0; s < 24; ++s) {
+            const double th = 2 * M_PI * s / 24;
+            arm.mesh.insert(arm.mesh.end(), {r / 200.0f, float(0.1 * std::cos(th)), float(0.07 * std::sin(th))});
+        }
+    const int V = arm.vertex_count();
+    std::vector<int32_t> sweep_ids(V, 0), bone_ids(V, -1), skin(V);
+    std::vector<float> sweep_w(V, 1.0f), bone_w(V, 0.0f), skin_w(V, 1.0f), lengths = {1.0f, 1.0f, 0.3f};
+    for (int v = 0; v < V; ++v) {
+        const float x = arm.mesh[3 * v];
+        if (x > 1.8f) bone_ids[v] = 2, bone_w[v] = (x - 1.8f) * 2.0f;
+        skin[v] = x < 1.0f ? 0 : (x < 2.0f ? 1 : 2);
+    }
+    sd_binding* b = nullptr;
+    ASSERT_EQ(sd_bind(arm.rig, V, arm.mesh.data(), 1, sweep_ids.data(), sweep_w.data(), 1, bone_ids.data(),
+                      bone_w.data(), &b),
+              SD_OK)
+        << sd_last_error();
+    sd_deformer* d = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &d), SD_OK) << sd_last_error();
+    sd_output_check* check = nullptr;
+    ASSERT_EQ(sd_output_check_create(V, arm.mesh.data(), 3, arm.rest.data(), lengths.data(), 1, skin.data(),
+                                     skin_w.data(), 0.05f, &check),
+              SD_OK)
+        << sd_last_error();
+    ASSERT_GT(V, 4 * 2048);
+    std::vector<float> bent = arm.rest;
+    const float c = std::cos(70 * float(M_PI) / 180), s = std::sin(70 * float(M_PI) / 180);
+    for (int bone = 1; bone < 3; ++bone) {
+        const float m[16] = {c, s, 0, 0, -s, c, 0, 0, 0, 0, 1, 0, 1 + (bone == 2 ? c : 0.0f), bone == 2 ? s : 0.0f,
+                             0, 1};
+        std::copy(m, m + 16, &bent[16 * static_cast<size_t>(bone)]);
+    }
+    const std::vector<int32_t> moved = {0, 5, 2047, 2048, 4095, 4096, 6000, 8191, 8192, 9000, V - 1};
+    const int32_t M = static_cast<int32_t>(moved.size());
+    std::vector<float> disp(3 * M), base(3 * V), rest(3 * V);
+    for (int i = 0; i < 3 * M; ++i) disp[i] = 0.003f * static_cast<float>(i % 7) - 0.01f;
+    ASSERT_EQ(sd_deform(d, 3, arm.rest.data(), V, rest.data()), SD_OK);
+    for (int i = 0; i < 3 * V; ++i) base[i] = rest[i] + 1e-3f * static_cast<float>(i % 11);
+    for (const int32_t count : {0, M})
+        for (const float limit : {3.0f, 1.2f})  // 1.2: the bend's inside is beyond it
+            for (const bool with_base : {false, true})
+                for (const int subtract : {0, 1}) {
+                    SCOPED_TRACE("moved " + std::to_string(count) + " limit " + std::to_string(limit) + " base " +
+                                 std::to_string(with_base) + " subtract " + std::to_string(subtract));
+                    std::vector<float> pos(3 * V), turned(3 * M), composed(3 * V);
+                    int32_t beyond = -7, vertex = -7, bone = -7;
+                    float ratio = -7.0f;
+                    ASSERT_EQ(sd_deform_frame(d, 3, bent.data(), V, count, moved.data(), disp.data(), pos.data(),
+                                              turned.data(), check, limit, &beyond, &ratio, &vertex, &bone, rest.data(),
+                                              with_base ? base.data() : nullptr, subtract, composed.data()),
+                              SD_OK)
+                        << sd_last_error();
+                    std::vector<float> pos1(3 * V), turned1(3 * M), composed1(3 * V);
+                    int32_t beyond1 = -1, vertex1 = -1, bone1 = -1;
+                    float ratio1 = -1.0f;
+                    ASSERT_EQ(sd_deform_displaced(d, 3, bent.data(), V, count, moved.data(), disp.data(), pos1.data(),
+                                                  turned1.data()),
+                              SD_OK);
+                    ASSERT_EQ(sd_output_check_run(check, 3, bent.data(), V, pos1.data(), limit, &beyond1, &ratio1,
+                                                  &vertex1, &bone1, nullptr),
+                              SD_OK);
+                    ASSERT_EQ(sd_compose_offsets(V, pos1.data(), rest.data(), with_base ? base.data() : nullptr, count,
+                                                 moved.data(), turned1.data(), subtract ? disp.data() : nullptr,
+                                                 composed1.data()),
+                              SD_OK);
+                    EXPECT_EQ(pos, pos1);
+                    if (count) EXPECT_EQ(turned, turned1);
+                    EXPECT_EQ(composed, composed1);
+                    EXPECT_EQ(beyond, beyond1);
+                    EXPECT_EQ(ratio, ratio1);
+                    EXPECT_EQ(vertex, vertex1);
+                    EXPECT_EQ(bone, bone1);
+                    if (limit < 2.0f)
+                        EXPECT_GT(beyond, 0) << "the tight limit finds the bend";
+                    else
+                        EXPECT_EQ(beyond, 0);
+                }
+    // Without a check or a composition: the positions alone, the verdict empty.
+    std::vector<float> pos(3 * V), pos1(3 * V);
+    int32_t beyond = -7, vertex = -7, bone = -7;
+    float ratio = -7.0f;
+    ASSERT_EQ(sd_deform_frame(d, 3, bent.data(), V, 0, nullptr, nullptr, pos.data(), nullptr, nullptr, 0.0f, &beyond,
+                              &ratio, &vertex, &bone, nullptr, nullptr, 0, nullptr),
+              SD_OK)
+        << sd_last_error();
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, pos1.data()), SD_OK);
+    EXPECT_EQ(pos, pos1);
+    EXPECT_EQ(beyond, 0);
+    EXPECT_EQ(ratio, 0.0f);
+    EXPECT_EQ(vertex, -1);
+    EXPECT_EQ(bone, -1);
+    // Refused, nothing written.
+    std::vector<float> out(3 * V, 42.0f), turned(3 * M, 42.0f), composed(3 * V, 42.0f);
+    const auto frame = [&](const float* pose, float limit, const float* rest_in, float* into, int32_t vertices) {
+        return sd_deform_frame(d, 3, pose, vertices, M, moved.data(), disp.data(), out.data(), turned.data(), check,
+                               limit, nullptr, nullptr, nullptr, nullptr, rest_in, nullptr, 1, into);
+    };
+    std::vector<float> nan_pose = bent;
+    nan_pose[13] = kNaN;
+    expect_error(frame(nan_pose.data(), 3.0f, rest.data(), composed.data(), V), SD_ERR_INVALID_ARGUMENT, "NaN pose");
+    expect_error(frame(bent.data(), 0.0f, rest.data(), composed.data(), V), SD_ERR_INVALID_ARGUMENT, "limit 0");
+    expect_error(frame(bent.data(), kNaN, rest.data(), composed.data(), V), SD_ERR_INVALID_ARGUMENT, "NaN limit");
+    expect_error(frame(bent.data(), 3.0f, nullptr, composed.data(), V), SD_ERR_INVALID_ARGUMENT, "NULL rest");
+    expect_error(frame(bent.data(), 3.0f, rest.data(), out.data(), V), SD_ERR_INVALID_ARGUMENT, "composed = positions");
+    expect_error(frame(bent.data(), 3.0f, rest.data(), composed.data(), V - 1), SD_ERR_MISMATCH, "vertex count");
+    sd_output_check* other = nullptr;
+    ASSERT_EQ(sd_output_check_create(V - 1, arm.mesh.data(), 3, arm.rest.data(), lengths.data(), 1, skin.data(),
+                                     skin_w.data(), 0.05f, &other),
+              SD_OK);
+    expect_error(sd_deform_frame(d, 3, bent.data(), V, 0, nullptr, nullptr, out.data(), nullptr, other, 3.0f, nullptr,
+                                 nullptr, nullptr, nullptr, nullptr, nullptr, 0, nullptr),
+                 SD_ERR_MISMATCH, "check of another mesh");
+    for (float x : out) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    for (float x : turned) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    for (float x : composed) ASSERT_EQ(x, 42.0f) << "output touched by a failed call";
+    sd_output_check_destroy(other);
+    sd_output_check_destroy(check);
+    sd_deformer_destroy(d);
+    sd_binding_destroy(b);
+}
+
 TEST(CApi, BlobsRoundTripExactly) {
     AbiArm arm;
     int64_t size = 0;
