@@ -200,8 +200,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
 
     std::vector<uint32_t> slot_of(n);
     std::vector<size_t> sizes(kSlotPlanes, n);
-    sizes[kP4] = 4 * n;
-    sizes[kFrames] = 8 * n;
+    sizes[kP4] = sizes[kFrames] = 0;  // (per task: run()'s scratch)
     planes_.resize(sizes);
     slot_vertex_.resize(n);
     for (size_t s = 0; s < n; ++s) {
@@ -262,6 +261,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
         const auto blended_at = std::lower_bound(blended_vertices_.begin(), blended_vertices_.end(), first,
                                                  [](const BlendedVertex& a, int v) { return a.vertex < v; });
         block_plain_.push_back(static_cast<int32_t>(plain_at - plain_vertices_.begin()));
+        block_slots_.push_back(batch_at == batches_.end() ? static_cast<int32_t>(n) : batch_at->begin);
         block_blended_.push_back(static_cast<int32_t>(blended_at - blended_vertices_.begin()));
         if (first >= V) break;
     }
@@ -324,19 +324,20 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
     SlotPlanes& pl = planes_;
     const FrameSlots slots{pl[kU],  pl[kW],  pl[kX],  pl[kY],  pl[kZ],  pl[kCos], pl[kSin], pl[kRx],
-                           pl[kRy], pl[kRz], pl[kRw], pl[kVx], pl[kVy], pl[kVz],  pl[kP4],  pl[kFrames]};
-    // A block's influences (its batches), evaluated by the task that sums its vertices below.
-    const auto batches = [&](const int vertex_block) {
+                           pl[kRy], pl[kRz], pl[kRw], pl[kVx], pl[kVy], pl[kVz],  nullptr,  nullptr};
+    // A block's influences (its batches), evaluated by the task that sums its vertices below,
+    // into that task's scratch (`at`: the planes from the block's first slot on).
+    const auto batches = [&](const int vertex_block, const FrameSlots& at, const int32_t first) {
         for (int32_t i = block_batches_[vertex_block]; i != block_batches_[vertex_block + 1]; ++i) {
             const Batch& bt = batches_[i];
             // A blended vertex's J is its blended frame's turn: its slots' turns are evaluated
             // only where its frames cancel (turn_of, below).
             if (bt.frames) {
-                evaluate_frame_batch(half_spans[bt.half_span], bt.begin, bt.end, slots);
+                evaluate_frame_batch(half_spans[bt.half_span], bt.begin - first, bt.end - first, at);
                 continue;
             }
-            evaluate_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.x, slots.y, slots.z,
-                           slots.cos, slots.sin, slots.p4);
+            evaluate_batch(half_spans[bt.half_span], bt.begin - first, bt.end - first, at.u, at.w, at.x, at.y, at.z,
+                           at.cos, at.sin, at.p4);
             if (jacobians != nullptr)
                 evaluate_turn_batch(half_spans[bt.half_span], bt.begin, bt.end, slots.u, slots.w, slots.rx, slots.ry,
                                     slots.rz, slots.rw, turns_.data());
@@ -347,7 +348,6 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
         }
     };
     const float* rest = b.rest_positions.data();
-    const float* p4 = slots.p4;
     const auto store = [&](int v, Float4 p, const float* j) {
         if (const int32_t i = any_moved ? moved_at[v] : -1; i >= 0) {  // J d
             const float* d = maps.displacements + 3 * static_cast<size_t>(i);
@@ -374,7 +374,8 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     // vertex costs its position alone, none of J's per-vertex lookups and sums (sweep_bench,
     // MakeHuman 80K, alternating builds: 1.07-1.13 -> 0.96-1.04 of linear blend skinning on two
     // threads, 1.02-1.04 -> 0.93-0.98 on one; docs/figures.md).
-    const auto plain_vertices = [&](const int k0, const int k1, auto j_wanted) {
+    const auto plain_vertices = [&](const int k0, const int k1, auto j_wanted, const float* p4,
+                                    const int32_t first_slot) {
         constexpr bool kJ = decltype(j_wanted)::value;
         for (int k = k0; k != k1; ++k) {
             const int v = plain_vertices_[k];
@@ -383,7 +384,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             float j[9] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f};  // J, row-major
             for (uint32_t i = row_offsets_[v]; i < row_offsets_[v + 1]; ++i) {
                 const uint32_t s = rows_[i];
-                p += load4(p4 + 4 * static_cast<size_t>(s));
+                p += load4(p4 + 4 * static_cast<size_t>(s - first_slot));
                 if constexpr (kJ)
                     if (vertex_j) add_slot_turn(1.0f, &turns_[9 * static_cast<size_t>(s)], j);
             }
@@ -418,20 +419,20 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
             }
         }
     };
-    const auto plain_block = [&](const int k0, const int k1) {
+    const auto plain_block = [&](const int k0, const int k1, const float* p4, const int32_t first) {
         if (!with_j) {
-            plain_vertices(k0, k1, std::false_type{});
+            plain_vertices(k0, k1, std::false_type{}, p4, first);
         } else if (jacobians) {
-            plain_vertices(k0, k1, std::true_type{});
+            plain_vertices(k0, k1, std::true_type{}, p4, first);
         } else {  // J for the displaced vertices alone: the others as a plain frame's, run by run
             for (int k = k0; k != k1;) {
                 const bool moved = moved_at[plain_vertices_[k]] >= 0;
                 int end = k + 1;
                 while (end != k1 && (moved_at[plain_vertices_[end]] >= 0) == moved) ++end;
                 if (moved)
-                    plain_vertices(k, end, std::true_type{});
+                    plain_vertices(k, end, std::true_type{}, p4, first);
                 else
-                    plain_vertices(k, end, std::false_type{});
+                    plain_vertices(k, end, std::false_type{}, p4, first);
                 k = end;
             }
         }
@@ -457,7 +458,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                             slots.w, slots.rx, slots.ry, slots.rz, slots.rw, turns_.data());
         return &turns_[9 * static_cast<size_t>(s)];
     };
-    const auto blended_block = [&](const int k0, const int k1) {
+    const auto blended_block = [&](const int k0, const int k1, const FrameSlots& at, const int32_t block_first) {
         // 1. Each vertex's frames summed (FrameBlend), into planes.
         for (int k = k0; k != k1; ++k) {
             const BlendedVertex& row = blended_vertices_[k];
@@ -470,7 +471,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 for (int c = 0; c < 9; ++c) j[c] = 0.0f;
             FrameBlend blend;
             for (const BlendEntry* f = first_slot; f != bones_first; ++f) {
-                const float* o = &slots.frames[8 * static_cast<size_t>(f->index)];
+                const float* o = &at.frames[8 * static_cast<size_t>(f->index - block_first)];
                 blend.add_weighted(load4(o), load4(o + 4));  // w q, ½ w t q
             }
             for (const BlendEntry* f = bones_first; f != end; ++f) {
@@ -516,7 +517,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
                 if (j)
                     for (int c = 0; c < 9; ++c) j[c] = 0.0f;
                 for (const BlendEntry* f = first; f != bones_first; ++f) {
-                    p += load4(p4 + 4 * static_cast<size_t>(f->index));
+                    p += load4(at.p4 + 4 * static_cast<size_t>(f->index - block_first));
                     if (j) add_slot_turn(1.0f, turn_of(f->index), j);
                 }
                 float all[3] = {0.0f, 0.0f, 0.0f};
@@ -534,12 +535,22 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     // the same cache lines of `out`.
     const int blocks = static_cast<int>(block_plain_.size()) - 1;
     tbb::parallel_for(tbb::blocked_range<int>(0, blocks, 1), [&](const tbb::blocked_range<int>& r) {
+        std::vector<float>& scratch = scratch_.local();
         for (int i = r.begin(); i != r.end(); ++i) {
             {
                 const FlushDenormals flush;
-                batches(i);
-                plain_block(block_plain_[i], block_plain_[i + 1]);
-                blended_block(block_blended_[i], block_blended_[i + 1]);
+                // The block's slots' outputs in this thread's scratch, which stays in its cache
+                // from block to block (in planes of every slot, a frame wrote 3.5 MB at 75K
+                // vertices and read them back).
+                const int32_t first = block_slots_[i], n = block_slots_[i + 1] - first;
+                if (scratch.size() < 12 * static_cast<size_t>(n)) scratch.resize(12 * static_cast<size_t>(n));
+                const FrameSlots at{slots.u + first,  slots.w + first,   slots.x + first,   slots.y + first,
+                                    slots.z + first,  slots.cos + first, slots.sin + first, slots.rx + first,
+                                    slots.ry + first, slots.rz + first,  slots.rw + first,  slots.vx + first,
+                                    slots.vy + first, slots.vz + first,  scratch.data(),    scratch.data() + 4 * n};
+                batches(i, at, first);
+                plain_block(block_plain_[i], block_plain_[i + 1], at.p4, first);
+                blended_block(block_blended_[i], block_blended_[i + 1], at, first);
             }
             // (in the thread's own floating-point mode, as the caller's separate passes would be)
             if (maps.after_block) (*maps.after_block)(i);

@@ -16,6 +16,8 @@
 #include "deform/linear_blend_skinning.h"
 #include "deform/slot_planes.h"
 
+#include <tbb/enumerable_thread_specific.h>
+
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -119,6 +121,9 @@ private:
     std::vector<BlendEntry> blend_entries_;
     std::vector<int32_t> block_plain_, block_blended_;  // per block of vertices: its first in each list
     std::vector<int32_t> block_batches_;                // per block of vertices: its first batch
+    std::vector<int32_t> block_slots_;                  // per block of vertices: its first slot
+    /// Per thread: the slots' outputs of the block it evaluates, 4 + 8 floats per slot.
+    tbb::enumerable_thread_specific<std::vector<float>> scratch_;
     /// Planes (one float per frame-blended vertex each) of blend_planes_: the frames' sums and
     /// the blended position written per frame, the rest position and share constant.
     enum BlendPlane : int {
