@@ -7,7 +7,7 @@ the core's call (with the output check and the offsets' sums: one pass), the car
 fails on speed.
 
     BLENDER_USER_RESOURCES=$(mktemp -d) scripts/blender --use 5.2 -b --factory-startup \\
-        --python tests/blender/profile_frame.py -- [--zip ZIP] [--frames N] [--shape-key 1|head]
+        --python tests/blender/profile_frame.py -- [--zip ZIP] [--frames N] [--shape-key 1|head] [--characters NAME]
 """
 
 import cProfile
@@ -32,7 +32,7 @@ import measure_frame  # noqa: E402
 def main():
     opts = measure_frame.args()
     install.install(opts["zip"])
-    body, arm, _, bones = measure_frame.load("fixture")
+    body, arm, _, bones = measure_frame.load(opts["characters"].split(",")[0] if "--characters" in sys.argv else "fixture")
     bpy.context.view_layer.objects.active = body
     assert bpy.ops.object.sweep_deform_add() == {'FINISHED'}
     if opts["shape-key"]:
