@@ -18,15 +18,15 @@ using sd::abi::fail;
 using sd::abi::guarded;
 }  // namespace
 
-extern "C" {
+namespace sd::abi {
 
-sd_status sd_deform_frame(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
-                          int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
-                          float* out_positions, float* out_turned, const sd_output_check* check, float ratio_limit,
-                          int32_t* out_beyond, float* out_worst_ratio, int32_t* out_worst_vertex,
-                          int32_t* out_worst_bone, const float* rest, const float* base, int32_t subtract_displacements,
-                          float* out_composed) {
-    return guarded(__func__, [&] {
+sd_status deform_frame(const char* function, sd_deformer* d, int32_t bone_count, const float* pose,
+                       int32_t vertex_count, int32_t moved_count, const int32_t* moved_vertices,
+                       const float* displacements, float* out_positions, float* out_turned,
+                       const sd_output_check* check, float ratio_limit, int32_t* out_beyond, float* out_worst_ratio,
+                       int32_t* out_worst_vertex, int32_t* out_worst_bone, const float* rest, const float* base,
+                       int32_t subtract_displacements, float* out_composed) {
+    return guarded(function, [&] {
         SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
         SD_REQUIRE(moved_count >= 0, "moved_count is negative");
         SD_REQUIRE(moved_count == 0 || (moved_vertices && displacements && out_turned),
@@ -68,8 +68,11 @@ sd_status sd_deform_frame(sd_deformer* d, int32_t bone_count, const float* pose,
             sd::compose_frame_offsets_range(begin, end, out_positions, rest, base, moved_count, moved_vertices,
                                             out_turned, subtracted, out_composed);
         };
-        d->deformer->deform_in_blocks(pose, moved_count, moved_vertices, displacements, out_positions, out_turned,
-                                      after_block);
+        if (frame || out_composed)
+            d->deformer->deform_in_blocks(pose, moved_count, moved_vertices, displacements, out_positions, out_turned,
+                                          after_block);
+        else
+            d->deformer->deform_displaced(pose, moved_count, moved_vertices, displacements, out_positions, out_turned);
         const sd::OutputCheck::Verdict v = frame ? frame->verdict() : sd::OutputCheck::Verdict{};
         if (out_beyond) *out_beyond = v.beyond;
         if (out_worst_ratio) *out_worst_ratio = static_cast<float>(v.worst_ratio);
@@ -77,6 +80,22 @@ sd_status sd_deform_frame(sd_deformer* d, int32_t bone_count, const float* pose,
         if (out_worst_bone) *out_worst_bone = v.worst_bone;
         return SD_OK;
     });
+}
+
+}  // namespace sd::abi
+
+extern "C" {
+
+sd_status sd_deform_frame(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
+                          int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
+                          float* out_positions, float* out_turned, const sd_output_check* check, float ratio_limit,
+                          int32_t* out_beyond, float* out_worst_ratio, int32_t* out_worst_vertex,
+                          int32_t* out_worst_bone, const float* rest, const float* base, int32_t subtract_displacements,
+                          float* out_composed) {
+    return sd::abi::deform_frame(__func__, d, bone_count, pose, vertex_count, moved_count, moved_vertices,
+                                 displacements, out_positions, out_turned, check, ratio_limit, out_beyond,
+                                 out_worst_ratio, out_worst_vertex, out_worst_bone, rest, base, subtract_displacements,
+                                 out_composed);
 }
 
 }  // extern "C"

@@ -150,22 +150,10 @@ sd_status sd_deform_frames(sd_deformer* d, int32_t bone_count, const float* pose
 sd_status sd_deform_displaced(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count,
                               int32_t moved_count, const int32_t* moved_vertices, const float* displacements,
                               float* out_positions, float* out_turned) {
-    return guarded(__func__, [&] {
-        SD_REQUIRE(d && pose && out_positions, "deformer, pose or out_positions is NULL");
-        SD_REQUIRE(moved_count >= 0, "moved_count is negative");
-        SD_REQUIRE(moved_count == 0 || (moved_vertices && displacements && out_turned),
-                   "moved_vertices, displacements or out_turned is NULL");
-        if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
-        SD_REQUIRE(moved_count <= vertex_count, "moved_count exceeds vertex_count");
-        for (int32_t i = 0; i < moved_count; ++i)
-            SD_REQUIRE(moved_vertices[i] >= 0 && moved_vertices[i] < vertex_count &&
-                           (i == 0 || moved_vertices[i] > moved_vertices[i - 1]),
-                       "moved_vertices must be ascending vertex indices (index " + std::to_string(i) + ")");
-        // (bounded so that J d stays finite for any pose sd_deform accepts)
-        sd::abi::require_within(displacements, 3 * static_cast<size_t>(moved_count), 1e12f, "displacements");
-        d->deformer->deform_displaced(pose, moved_count, moved_vertices, displacements, out_positions, out_turned);
-        return SD_OK;
-    });
+    // sd_deform_frame without its check and sums (abi/deform_frame.cpp checks the arguments)
+    return sd::abi::deform_frame(__func__, d, bone_count, pose, vertex_count, moved_count, moved_vertices,
+                                 displacements, out_positions, out_turned, nullptr, 0.0f, nullptr, nullptr, nullptr,
+                                 nullptr, nullptr, nullptr, 0, nullptr);
 }
 
 sd_status sd_deformer_get_volumes(const sd_deformer* d, int32_t sweep_count, double* rest, double* before,

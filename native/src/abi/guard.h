@@ -98,6 +98,15 @@ inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, i
 }
 
 /// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
+/// sd_deform_frame, its errors named after `function` (sd_deform_displaced is this without
+/// a check or sums; abi/deform_frame.cpp).
+sd_status deform_frame(const char* function, sd_deformer* d, int32_t bone_count, const float* pose,
+                       int32_t vertex_count, int32_t moved_count, const int32_t* moved_vertices,
+                       const float* displacements, float* out_positions, float* out_turned,
+                       const sd_output_check* check, float ratio_limit, int32_t* out_beyond, float* out_worst_ratio,
+                       int32_t* out_worst_vertex, int32_t* out_worst_bone, const float* rest, const float* base,
+                       int32_t subtract_displacements, float* out_composed);
+
 /// Every value of p[0..n) finite, or SD_ERR_INVALID_ARGUMENT naming the first that is not.
 inline void require_finite(const float* p, size_t n, const char* what) {
     for (size_t i = 0; i < n; ++i)
