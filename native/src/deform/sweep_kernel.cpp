@@ -200,9 +200,7 @@ SweepKernel::SweepKernel(const Binding& b, const std::vector<int>& span_base,
     });
 
     std::vector<uint32_t> slot_of(n);
-    std::vector<size_t> sizes(kSlotPlanes, n);
-    sizes[kP4] = sizes[kFrames] = 0;  // (per task: run()'s scratch)
-    planes_.resize(sizes);
+    planes_.resize(std::vector<size_t>(kSlotPlanes, n));
     slot_vertex_.resize(n);
     for (size_t s = 0; s < n; ++s) {
         const SweepInfluence& f = inf[order[s]];
@@ -324,6 +322,7 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     }
     const size_t block = 3 * static_cast<size_t>(b.vertex_count());
     SlotPlanes& pl = planes_;
+    // (the outputs, p4 and frames, are per task: below)
     const FrameSlots slots{pl[kU],  pl[kW],  pl[kX],  pl[kY],  pl[kZ],  pl[kCos], pl[kSin], pl[kRx],
                            pl[kRy], pl[kRz], pl[kRw], pl[kVx], pl[kVy], pl[kVz],  nullptr,  nullptr};
     // A block's influences (its batches), evaluated by the task that sums its vertices below,

@@ -73,28 +73,10 @@ private:
         bool frames;  // influences of vertices blended as rigid frames
     };
     std::vector<Batch> batches_;  // ranges of one half-span, <= kBatch long
-    /// Per slot (influences sorted by half-span): u, w, x, y, z, cos, sin; Q_rest(u)^-1
-    /// (frame-blended slots); the slot's vertex at rest; per frame the weighted contribution
-    /// (4 per slot) and, frame-blended slots, w q and ½ w (p - V) q (8 per slot).
-    enum SlotPlane : int {
-        kU,
-        kW,
-        kX,
-        kY,
-        kZ,
-        kCos,
-        kSin,
-        kRx,
-        kRy,
-        kRz,
-        kRw,
-        kVx,
-        kVy,
-        kVz,
-        kP4,
-        kFrames,
-        kSlotPlanes
-    };
+    /// Per slot (influences sorted by block of vertices, then half-span): u, w, x, y, z, cos,
+    /// sin; Q_rest(u)^-1 (frame-blended slots); the slot's vertex at rest. What a frame makes of
+    /// them is in the evaluating thread's scratch_.
+    enum SlotPlane : int { kU, kW, kX, kY, kZ, kCos, kSin, kRx, kRy, kRz, kRw, kVx, kVy, kVz, kSlotPlanes };
     SlotPlanes planes_;
     std::vector<float> turns_;                             // with J only: 9 per slot, w R(u) R_rest(u)^-1
     std::vector<int32_t> slot_vertex_;                     // the slot's vertex
