@@ -5,7 +5,8 @@
 the character can be deformed (bound, modifier on, object not linked, topology and rest pose
 as bound, usable transforms), brings the cache entry's corrections and anatomical effects up
 to date, returns at once when the entry's key says this state is already written, and
-otherwise makes one call down (``sd_deform`` or ``sd_deform_with_anatomy``) and writes one
+otherwise makes one call down (``sd_deform_frame``: the deformation, its output check and the
+offsets' sums in one pass; or ``sd_deform_with_anatomy``, ``sd_deform_frames``) and writes one
 buffer up (the offsets, into the carrier through modifier.write_offsets; the character's
 mesh is never written). A frame that cannot be deformed writes nothing: the mesh keeps its
 last good deformation and the panel says why.
@@ -23,7 +24,7 @@ from . import anatomy, bind_state, binding, corrections, deformer_cache, mesh_da
 KEPT = "the mesh keeps its last good deformation until this is fixed"
 
 
-#: Calls into the core for a frame (sd_deform or sd_deform_with_anatomy), all objects together:
+#: Calls into the core for a frame (sd_deform_frame, sd_deform_with_anatomy, ...), all objects together:
 #: what the tests count to see that hidden or unchanged characters cost nothing.
 core_calls = 0
 

@@ -5,7 +5,7 @@ Sweep Deform carries what reaches it along with each vertex's local linear map J
 ``deformed_rest + J (incoming − rest)``. When only shape keys move the vertices (no modifier
 before Sweep Deform), ``incoming − rest`` is known before Blender evaluates the mesh: Blender
 mixes relative keys as ``reference + Σ value × (key − its relative key)``. The core then turns
-that displacement itself (``sd_mix_shape_keys`` mixes the keys, ``sd_deform_displaced`` turns
+that displacement itself (``sd_mix_shape_keys`` mixes the keys, ``sd_deform_frame`` turns
 the vertices they move) and the carrier holds plain offsets: no J
 blocks written or sampled by the node group, which made a frame with a shape key about twice
 one without (docs/addon.md, "Time per frame").
