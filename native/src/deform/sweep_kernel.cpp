@@ -539,7 +539,10 @@ void SweepKernel::run(const HalfSpanKernel* half_spans, const Affine3x4* bones, 
     tbb::parallel_for(
         tbb::blocked_range<int>(0, blocks, 1),
         [&](const tbb::blocked_range<int>& r) {
-            std::vector<float>& scratch = scratch_.local();
+            // One per thread, shared by every kernel: a block's use of it ends within the task,
+            // which runs nothing else meanwhile (a kernel's own per thread would hold 150 KB per
+            // character per thread of Blender's pool).
+            static thread_local std::vector<float> scratch;
             for (int i = r.begin(); i != r.end(); ++i) {
                 {
                     const FlushDenormals flush;

@@ -16,8 +16,6 @@
 #include "deform/linear_blend_skinning.h"
 #include "deform/slot_planes.h"
 
-#include <tbb/enumerable_thread_specific.h>
-
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -75,7 +73,7 @@ private:
     std::vector<Batch> batches_;  // ranges of one half-span, <= kBatch long
     /// Per slot (influences sorted by block of vertices, then half-span): u, w, x, y, z, cos,
     /// sin; Q_rest(u)^-1 (frame-blended slots); the slot's vertex at rest. What a frame makes of
-    /// them is in the evaluating thread's scratch_.
+    /// them is in the evaluating thread's scratch (run()).
     enum SlotPlane : int { kU, kW, kX, kY, kZ, kCos, kSin, kRx, kRy, kRz, kRw, kVx, kVy, kVz, kSlotPlanes };
     SlotPlanes planes_;
     std::vector<float> turns_;                             // with J only: 9 per slot, w R(u) R_rest(u)^-1
@@ -104,8 +102,6 @@ private:
     std::vector<int32_t> block_plain_, block_blended_;  // per block of vertices: its first in each list
     std::vector<int32_t> block_batches_;                // per block of vertices: its first batch
     std::vector<int32_t> block_slots_;                  // per block of vertices: its first slot
-    /// Per thread: the slots' outputs of the block it evaluates, 4 + 8 floats per slot.
-    tbb::enumerable_thread_specific<std::vector<float>> scratch_;
     /// Planes (one float per frame-blended vertex each) of blend_planes_: the frames' sums and
     /// the blended position written per frame, the rest position and share constant.
     enum BlendPlane : int {
