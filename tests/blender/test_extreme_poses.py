@@ -167,3 +167,41 @@ def test_exploded_frames_fall_back_to_linear_blend_skinning_with_a_warning():
             assert e.warning == "", (f, e.warning)
             check_equals_core(obj)
     assert e.fallback_frames == len(bad)
+
+
+def test_a_tighter_bound_sends_real_frames_to_linear_blend_skinning(monkeypatch):
+    """The frame's own check, in the core's one pass (sd_deform_frame), with the bound lowered
+    to 1.1× so that real poses cross it: a frame beyond it shows Blender's linear blend skinning
+    and names itself; a frame within it shows the sweeps, exactly the core's, and is within the
+    bound by the independent measure."""
+    check = helpers.sub("core.output_check")
+    monkeypatch.setattr(check, "RATIO_LIMIT", 1.1)
+    char, obj = bound_character()
+    measure = Measure(obj, char.armature)
+    cache = helpers.sub("blender.deformer_cache")
+    bpy.context.view_layer.update()
+    e = cache.entry(obj)
+    rng = np.random.default_rng(SEED + 1)
+    beyond, within = [], []
+    from test_deform import check_equals_core
+    for f in range(1, 13):  # bones turned by up to 5° on odd frames, 60° on even ones
+        bpy.context.scene.frame_current = f
+        amplitude = np.radians(5.0 if f % 2 else 60.0)
+        for pb in char.armature.pose.bones:
+            pb.rotation_mode = 'XYZ'
+            pb.rotation_euler = rng.uniform(-amplitude, amplitude, size=3)
+        bpy.context.view_layer.update()
+        co, _ = helpers.evaluated_positions(obj)
+        if e.warning:
+            assert e.warning.startswith(f"Frame {f}: pose beyond what the sweeps can follow (vertex "), e.warning
+            assert "limit 1.1×" in e.warning, e.warning
+            lbs = helpers.armature_modifier_positions(obj)
+            assert np.abs(co - lbs).max() <= 1e-4 * helpers.diagonal(lbs), (f, np.abs(co - lbs).max())
+            beyond.append(f)
+        else:
+            check_equals_core(obj)
+            assert measure.ratio(co) <= 1.1 + 1e-4, (f, measure.ratio(co))
+            within.append(f)
+    assert beyond and within, (beyond, within)  # both sides of the bound were seen
+    print(f"beyond 1.1x: frames {beyond}; within: {within}")
+    assert e.fallback_frames == len(beyond)
