@@ -297,6 +297,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
     global core_calls
     core_calls += 1
     composed = None  # the offsets (whole: positions) when the core's pass made them
+    checked = None  # whether the frame was checked, once it was
     if moves is not None:
         moved, d = moves
     try:
@@ -322,7 +323,7 @@ def _evaluate_entry(obj, s, md, arm, e, depsgraph, render):
         e.refuse(obj, f"Unusable pose: {why}: {KEPT}")
         e.refused_key = key
         return False
-    if frames is not None or e.anatomy is not None or to_mesh is not None:
+    if checked is None:  # (the core's one pass checked it already)
         deformed, checked = _checked_output(e, obj, arm, deformed, pose, depsgraph)
     if whole:
         e.whole_moves = e.moves_copy() if moves is not None else None  # (a render may mix other values)

@@ -13,11 +13,6 @@
 #include <optional>
 #include <string>
 
-namespace {
-using sd::abi::fail;
-using sd::abi::guarded;
-}  // namespace
-
 namespace sd::abi {
 
 sd_status deform_frame(const char* function, sd_deformer* d, int32_t bone_count, const float* pose,
@@ -31,13 +26,7 @@ sd_status deform_frame(const char* function, sd_deformer* d, int32_t bone_count,
         SD_REQUIRE(moved_count >= 0, "moved_count is negative");
         SD_REQUIRE(moved_count == 0 || (moved_vertices && displacements && out_turned),
                    "moved_vertices, displacements or out_turned is NULL");
-        const sd::Deformer& def = *d->deformer;
-        if (bone_count != def.rig().skeleton.bone_count())
-            return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
-                                             std::to_string(def.rig().skeleton.bone_count()));
-        if (vertex_count != def.vertex_count())
-            return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) +
-                                             " differs from the binding's " + std::to_string(def.vertex_count()));
+        if (const sd_status s = check_frame_counts(d, bone_count, vertex_count); s != SD_OK) return s;
         SD_REQUIRE(moved_count <= vertex_count, "moved_count exceeds vertex_count");
         for (int32_t i = 0; i < moved_count; ++i)
             SD_REQUIRE(moved_vertices[i] >= 0 && moved_vertices[i] < vertex_count &&

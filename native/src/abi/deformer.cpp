@@ -14,6 +14,7 @@
 
 namespace {
 
+using sd::abi::check_frame_counts;
 using sd::abi::fail;
 using sd::abi::guarded;
 using sd::abi::write_blob;
@@ -112,21 +113,6 @@ sd_status sd_deformer_load_joint_volumes(sd_deformer* d, const uint8_t* blob, in
         return SD_OK;
     });
 }
-
-namespace {
-
-/// The counts a frame's call gives, against the deformer's rig and binding.
-sd_status check_frame_counts(const sd_deformer* d, int32_t bone_count, int32_t vertex_count) {
-    if (bone_count != d->deformer->rig().skeleton.bone_count())
-        return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
-                                         std::to_string(d->deformer->rig().skeleton.bone_count()));
-    if (vertex_count != d->deformer->vertex_count())
-        return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) + " differs from the binding's " +
-                                         std::to_string(d->deformer->vertex_count()));
-    return SD_OK;
-}
-
-}  // namespace
 
 sd_status sd_deform(sd_deformer* d, int32_t bone_count, const float* pose, int32_t vertex_count, float* out_positions) {
     return guarded(__func__, [&] {

@@ -98,6 +98,17 @@ inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, i
 }
 
 /// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
+/// The counts a frame's call gives, against the deformer's rig and binding.
+inline sd_status check_frame_counts(const sd_deformer* d, int32_t bone_count, int32_t vertex_count) {
+    if (bone_count != d->deformer->rig().skeleton.bone_count())
+        return fail(SD_ERR_MISMATCH, "pose has " + std::to_string(bone_count) + " bones, the rig " +
+                                         std::to_string(d->deformer->rig().skeleton.bone_count()));
+    if (vertex_count != d->deformer->vertex_count())
+        return fail(SD_ERR_MISMATCH, "vertex_count " + std::to_string(vertex_count) + " differs from the binding's " +
+                                         std::to_string(d->deformer->vertex_count()));
+    return SD_OK;
+}
+
 /// sd_deform_frame, its errors named after `function` (sd_deform_displaced is this without
 /// a check or sums; abi/deform_frame.cpp).
 sd_status deform_frame(const char* function, sd_deformer* d, int32_t bone_count, const float* pose,
