@@ -283,10 +283,10 @@ def test_save_and_reload_keep_the_edits(fixture_char):
     values = [tuple(c.offset) + tuple(c.rotation) + (c.angle, c.scale_a, c.scale_b) for c in obj.sweep_deform.corrections]
     path = os.path.join(helpers.tmp_dir(), "key_edit_reload.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
-    # The saved rig blob carries the corrections too (format version 3), for other tools.
+    # The saved rig blob carries the corrections too (format version 2 and on), for other tools.
     native, persistence = helpers.sub("core.native"), helpers.sub("blender.persistence")
     blob = bytes(obj[persistence.RIG_KEY])
-    assert struct.unpack("<I", blob[4:8])[0] == 3
+    assert struct.unpack("<I", blob[4:8])[0] == 4
     assert native.Rig.deserialize(blob).corrections()["sweeps"].size == 1
 
     bpy.ops.wm.read_homefile(use_empty=True)

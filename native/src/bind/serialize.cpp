@@ -98,6 +98,17 @@ void get_twist_spreads(Reader& r, std::vector<std::vector<KeyEllipse>>& sweeps) 
         for (KeyEllipse& k : keys) k.twist_spread = r.get<double>();  // validated by add_sweep
 }
 
+/// Version 4 appends, per sweep and key, its twist direction (3 doubles; zero: the normal).
+void put_twist_directions(Writer& w, const Rig& rig) {
+    for (const Sweep& sw : rig.sweeps)
+        for (const KeyEllipse& k : sw.keys) w.put_glm(k.twist_direction);
+}
+
+void get_twist_directions(Reader& r, std::vector<std::vector<KeyEllipse>>& sweeps) {
+    for (std::vector<KeyEllipse>& keys : sweeps)
+        for (KeyEllipse& k : keys) k.twist_direction = r.get_glm<dvec3>();  // validated by add_sweep
+}
+
 constexpr char kRigMagic[4] = {'S', 'D', 'R', 'G'};
 constexpr char kBindingMagic[4] = {'S', 'D', 'B', 'N'};
 
@@ -108,6 +119,7 @@ std::vector<uint8_t> serialize_rig(const Rig& rig) {
     w.bytes = rig_payload(rig);
     put_corrections(w, rig);
     put_twist_spreads(w, rig);
+    put_twist_directions(w, rig);
     return frame(kRigMagic, kRigFormatVersion, w.bytes);
 }
 
@@ -154,6 +166,7 @@ Rig deserialize_rig(const uint8_t* data, size_t size) {
     std::vector<CorrectionRecord> corrections;
     if (version >= 2) corrections = get_corrections(r, sweeps);
     if (version >= 3) get_twist_spreads(r, sweeps);
+    if (version >= 4) get_twist_directions(r, sweeps);
     if (r.left() != 0) throw CorruptData("rig blob has trailing bytes");
     for (std::vector<KeyEllipse>& keys : sweeps) rig.add_sweep(std::move(keys));
     if (version >= 2) rig.set_corrections(corrections);

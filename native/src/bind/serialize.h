@@ -14,9 +14,10 @@
 namespace sd {
 
 /// Rig blobs: version 2 adds the key-ellipse corrections (Sect. 4.2) after the version 1
-/// payload, version 3 the keys' twist spreads after them; version 1 blobs are still read (as
-/// rigs without corrections), versions 1 and 2 with the default twist spread.
-constexpr uint32_t kRigFormatVersion = 3;
+/// payload, version 3 the keys' twist spreads after them, version 4 their twist directions;
+/// version 1 blobs are still read (as rigs without corrections), versions 1 and 2 with the
+/// default twist spread, versions 1 to 3 with every twist about the key's normal.
+constexpr uint32_t kRigFormatVersion = 4;
 constexpr uint32_t kBindingFormatVersion = 1;
 
 std::vector<uint8_t> serialize_rig(const Rig& rig);

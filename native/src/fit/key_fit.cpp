@@ -22,8 +22,9 @@ struct KeySpec {
     dvec3 normal{0.0};
     int bone = -1, joint_parent = -1;
     double twist = 0.5;
-    bool fixed_center = true;  ///< joint keys: center at the joint
-    double link_length = 0.0;  ///< scale for tolerances
+    dvec3 twist_direction{0.0};  ///< KeyEllipse::twist_direction: zero, or a unit vector
+    bool fixed_center = true;    ///< joint keys: center at the joint
+    double link_length = 0.0;    ///< scale for tolerances
 };
 
 /// A fitted cross-section, in space.
@@ -113,7 +114,12 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
     // blended as frames, as Preserve Volume turns it. With half of it at the key and the rest
     // one short span up, the neck sheared there: skineval neck_twist_60 crease p99.9 43° on
     // CesiumMan (DQS 23°), 37° on the 4.7K character (49°), 23° on the 13K MakeHuman (18°).
-    if (ch.kind == ChainKind::Neck) start.twist = 1.0;
+    // The twist is the neck's turn about its own line (joint to joint), not about the key's
+    // bisecting normal: see the torso's end key below.
+    if (ch.kind == ChainKind::Neck) {
+        start.twist = 1.0;
+        start.twist_direction = dir[0];
+    }
     specs.push_back(start);
     for (int i = 0; i < m; ++i) {
         if (i > 0) {
@@ -159,6 +165,18 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
             // side), and a normal from the bone's tail turned the key's plane sideways.
             const dvec3 nd = unit_or(first_link_direction(s, set, ch.end_bone), dir[m - 1]);
             end.normal = bisector(dir[m - 1], nd, glm::radians(60.0));
+            // The neck's twist is the neck's start key's alone (above), and it is a turn about
+            // the neck's own line: the torso's end takes none of it and only half the neck's
+            // swing. So a neck turned about itself turns the skin the two sweeps share about
+            // that line alone, every influence a turn about it, and the chest below stays put,
+            // as under Preserve Volume. With half the twist taken about the key's normal (6-18
+            // degrees off the neck), the chest's top span turned about a tilted axis and the
+            // skin at the neck's base rose off the neck: skineval neck_twist_60 r_max 1.0035 on
+            // the 13K MakeHuman, 1.023 on CesiumMan, now 1.0000 (math.md).
+            if (ch.kind == ChainKind::Torso) {
+                end.twist = 0.0;
+                end.twist_direction = nd;
+            }
         } else {
             // The wrist, ankle or head key takes the whole twist of the hand, foot or head,
             // spread along the forearm (shin, neck) by the sweep: no candy-wrapper.
@@ -430,6 +448,7 @@ ChainFit fit_chain(const FitMesh& mesh, const Skeleton& s, const ChainSet& set, 
         e.joint_parent = specs[k].joint_parent;
         e.swing_fraction = 0.5;
         e.twist_fraction = specs[k].twist;
+        e.twist_direction = specs[k].twist_direction;
         out.keys.push_back(e);
         KeyReport& r = out.reports[k];
         r.center = e.center;

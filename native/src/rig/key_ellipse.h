@@ -42,7 +42,12 @@ struct KeyEllipse {
     int bone = -1;                  ///< link it rides on, or the lower link of its joint
     int joint_parent = -1;          ///< the upper link of its joint; -1 for an intermediate key
     double swing_fraction = 0.5;    ///< joint keys: share of the joint's swing the key takes
-    double twist_fraction = 0.5;    ///< joint keys: share of the twist about its normal
+    double twist_fraction = 0.5;    ///< joint keys: share of the twist about twist_axis()
+    /// Joint keys: the rest direction the joint's twist is taken about, a unit vector, or zero
+    /// for the key's normal. The neck's joint takes the neck's own line (joint to joint): the
+    /// neck turns about itself, and about the joint's bisecting normal (6-18 degrees off it)
+    /// a pure turn of the neck read as part swing, which the chest's last key followed.
+    dvec3 twist_direction{0.0};
     /// End keys that twist (wrist, ankle, head): how their twist spreads back along the last
     /// link, whose keys take place^twist_spread of it (key_motion.cpp), in [1, 2]. The
     /// fitting lowers it from 2 on a mesh with few rings there (fit/twist_spread.h).
@@ -52,6 +57,7 @@ struct KeyEllipse {
 
     bool is_joint_key() const { return joint_parent >= 0; }
     dvec3 normal() const { return glm::mat3_cast(orientation)[2]; }
+    dvec3 twist_axis() const { return twist_direction == dvec3(0.0) ? normal() : twist_direction; }
 };
 
 }  // namespace sd

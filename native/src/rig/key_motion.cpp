@@ -114,7 +114,7 @@ std::vector<KeyMotion> key_motions(const std::vector<KeyEllipse>& keys, const Sk
             m.from_bone = e.joint_parent;
             m.swing_share = e.swing_fraction;
             m.twist_share = e.twist_fraction;
-            m.axis = e.normal();
+            m.axis = e.twist_axis();
             m.turns_about_pivot = true;
             m.pivot = skeleton.heads[e.bone];
         } else if (after[k] >= 0 && after[k] == K - 1) {

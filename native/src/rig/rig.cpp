@@ -177,6 +177,8 @@ Sweep make_sweep(std::vector<KeyEllipse> keys, const Skeleton& skeleton) {
             if (!(f >= 0.0 && f <= 1.0)) throw InvalidInput(key_name(k) + ": swing/twist fractions must be in [0, 1]");
         if (!(e.twist_spread >= 1.0 && e.twist_spread <= 2.0))
             throw InvalidInput(key_name(k) + ": the twist spread must be in [1, 2]");
+        if (e.twist_direction != dvec3(0.0) && !(std::abs(glm::length(e.twist_direction) - 1.0) <= 1e-6))
+            throw InvalidInput(key_name(k) + ": the twist direction must be zero or a unit vector");
         centers.push_back(e.center);
         rotations.push_back(e.orientation);
         is_joint.push_back(e.is_joint_key());

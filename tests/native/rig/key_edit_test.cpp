@@ -1,7 +1,7 @@
 // Key-ellipse editing (Sect. 4.2) on the synthetic arm: the joint angle of every key, the
 // interpolation of corrections over it (rest pinned, monotone, clamped), the deformation
 // changing only near the edited key and the edit's angle, volume control keeping a scaling
-// edit, rest corrections, blobs of format version 3 (and reading versions 1 and 2), and the C ABI.
+// edit, rest corrections, blobs of format version 4 (and reading versions 1 to 3), and the C ABI.
 #include "rig/key_pose.h"
 #include "bind/blob_io.h"
 #include "bind/serialize.h"
@@ -285,15 +285,16 @@ TEST(KeyEdit, BlobsKeepCorrectionsButNotInTheFingerprint) {
 
     // Version 1 (the payload without the corrections section): still read, no corrections.
     const size_t K = 7;
-    // one int32 0 per key ellipse (no corrections), one double per key (the twist spreads)
-    const std::vector<uint8_t> v1 = older_rig_blob(v1_like, 1, (4 + 8) * K);
+    // one int32 0 per key ellipse (no corrections), one double per key (the twist spreads),
+    // three per key (the twist directions)
+    const std::vector<uint8_t> v1 = older_rig_blob(v1_like, 1, (4 + 8 + 24) * K);
     const Rig old = deserialize_rig(v1.data(), v1.size());
     EXPECT_TRUE(old.corrections().empty());
     EXPECT_EQ(rig_fingerprint(old), plain);
-    // A version 4 blob is refused.
-    std::vector<uint8_t> v4 = blob;
-    v4[4] = 4;
-    EXPECT_THROW(deserialize_rig(v4.data(), v4.size()), CorruptData);
+    // A version 5 blob is refused.
+    std::vector<uint8_t> v5 = blob;
+    v5[4] = 5;
+    EXPECT_THROW(deserialize_rig(v5.data(), v5.size()), CorruptData);
 }
 
 TEST(KeyEdit, BlobsKeepTheTwistSpreadButNotInTheFingerprint) {
@@ -311,7 +312,7 @@ TEST(KeyEdit, BlobsKeepTheTwistSpreadButNotInTheFingerprint) {
     const Rig back = deserialize_rig(blob.data(), blob.size());
     EXPECT_EQ(back.sweeps[0].keys.back().twist_spread, 1.25);
     EXPECT_EQ(serialize_rig(back), blob);
-    const std::vector<uint8_t> v2 = older_rig_blob(blob, 2, 8 * keys.size());
+    const std::vector<uint8_t> v2 = older_rig_blob(blob, 2, (8 + 24) * keys.size());
     const Rig old = deserialize_rig(v2.data(), v2.size());
     EXPECT_EQ(old.sweeps[0].keys.back().twist_spread, kDefaultTwistSpread);
     EXPECT_EQ(serialize_rig(old), serialize_rig(arm.rig));
@@ -319,6 +320,35 @@ TEST(KeyEdit, BlobsKeepTheTwistSpreadButNotInTheFingerprint) {
     for (double bad : {0.5, 2.5, std::nan("")}) {
         keys.back().twist_spread = bad;
         EXPECT_THROW(rig.add_sweep(keys), InvalidInput) << bad;
+    }
+}
+
+TEST(KeyEdit, BlobsKeepTheTwistDirectionButNotInTheFingerprint) {
+    // Version 4 keeps each joint key's twist direction (the fitting's: the neck's line at the
+    // neck's joint); a version 3 blob, which has none, reads with every twist about the key's
+    // normal, as it deformed when it was saved; the fingerprint does not change.
+    const test::Arm arm;
+    std::vector<KeyEllipse> keys = arm.rig.sweeps[0].keys;
+    ASSERT_TRUE(keys[3].is_joint_key());
+    keys[3].twist_direction = glm::normalize(dvec3(0.1, 0.0, 1.0));
+    Rig rig;
+    rig.skeleton = arm.rig.skeleton;
+    rig.add_sweep(keys);
+    EXPECT_EQ(rig_fingerprint(rig), rig_fingerprint(arm.rig));
+    const auto blob = serialize_rig(rig);
+    const Rig back = deserialize_rig(blob.data(), blob.size());
+    EXPECT_EQ(back.sweeps[0].keys[3].twist_direction, keys[3].twist_direction);
+    EXPECT_EQ(back.sweeps[0].keys[3].twist_axis(), keys[3].twist_direction);
+    EXPECT_EQ(serialize_rig(back), blob);
+    const std::vector<uint8_t> v3 = older_rig_blob(blob, 3, 24 * keys.size());
+    const Rig old = deserialize_rig(v3.data(), v3.size());
+    EXPECT_EQ(old.sweeps[0].keys[3].twist_direction, dvec3(0.0));
+    EXPECT_EQ(old.sweeps[0].keys[3].twist_axis(), old.sweeps[0].keys[3].normal());
+    EXPECT_EQ(serialize_rig(old), serialize_rig(arm.rig));
+    // Neither zero nor a unit vector: refused like any other bad key.
+    for (const dvec3& bad : {dvec3(0.5, 0.0, 0.0), dvec3(std::nan(""), 0.0, 1.0), dvec3(0.0, 0.0, 1e300)}) {
+        keys[3].twist_direction = bad;
+        EXPECT_THROW(rig.add_sweep(keys), InvalidInput);
     }
 }
 

@@ -1,5 +1,9 @@
-// How the keys of a thick chain (a trunk) follow its bones (rig/key_motion.h).
+// How the keys of a thick chain (a trunk) follow its bones, and how a joint key splits its
+// joint's turn into swing and twist (rig/key_motion.h, rig/key_pose.h).
 #include "rig/key_motion.h"
+#include "rig/key_pose.h"
+#include "rig/rig.h"
+#include "turned_pose.h"
 
 #include <gtest/gtest.h>
 
@@ -119,6 +123,80 @@ TEST(KeyMotion, AShoulderKeyTakesTheWholeSwingAsTheArmIsLoweredAndMoreThanHalfAs
     m.lowering = dvec3(0.0);
     EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 1, 0), 70.0)), 0.5);
     EXPECT_DOUBLE_EQ(shoulder_swing_share(m, swing(dvec3(0, 1, 0), -70.0)), 0.5);
+}
+
+/// A chest bone up the z axis and a neck leaning 17 degrees forward from its tip, and the
+/// chest's end key at the joint, its plane bisecting the two (the fitting's gentle joints):
+/// its normal is 8.5 degrees off the neck.
+struct NeckJoint {
+    Skeleton skeleton;
+    dvec3 joint{0, 0, 1}, neck = glm::normalize(dvec3(0, -0.3, 1));
+    KeyEllipse key;
+
+    NeckJoint() {
+        const std::vector<dvec3> heads{dvec3(0.0), joint}, tails{joint, joint + 0.1 * neck};
+        skeleton = Skeleton::build(
+            {-1, 0}, {glm::translate(dmat4(1.0), heads[0]), glm::translate(dmat4(1.0), heads[1])}, heads, tails);
+        const dvec3 normal = glm::normalize(dvec3(0, 0, 1) + neck);
+        key.center = joint;
+        key.orientation = dquat(dvec3(0, 0, 1), normal);
+        key.a = key.b = 0.02;  // a neck, not a trunk: thinner than its links are long
+        key.bone = 1;
+        key.joint_parent = 0;
+    }
+    /// The key's turn since rest with the neck turned `degrees` about its own line.
+    dquat turn(double degrees) const {
+        Rig rig;
+        rig.skeleton = skeleton;
+        KeyEllipse below = key, above = key;
+        below.center = dvec3(0, 0, 0.5);
+        below.orientation = dquat(1, 0, 0, 0);
+        below.bone = 0;
+        below.joint_parent = -1;
+        above.center = joint + 0.05 * neck;
+        above.orientation = dquat(dvec3(0, 0, 1), neck);
+        above.joint_parent = -1;
+        rig.add_sweep({below, key, above});
+        SkeletonPose pose;
+        const std::vector<float> m =
+            testing::turned_pose(skeleton, 1, testing::turn_about(joint, neck, glm::radians(degrees)));
+        pose.set(skeleton, m.data());
+        std::vector<dvec3> centers;
+        std::vector<dquat> rotations;
+        pose_keys(rig.sweeps[0], pose, centers, rotations);
+        return rotations[1] * glm::conjugate(key.orientation);
+    }
+};
+
+/// The angle (degrees) between `turn`'s axis and `axis` (either sense).
+double off_axis_degrees(const dquat& turn, const dvec3& axis) {
+    const dvec3 v(turn.x, turn.y, turn.z);
+    return glm::degrees(std::acos(std::min(1.0, std::abs(glm::dot(glm::normalize(v), axis)))));
+}
+
+TEST(KeyMotion, AJointKeyTakesItsTwistAboutItsTwistDirection) {
+    // The neck turned 60 degrees about its own line: with the twist taken about the neck
+    // (the fitting's twist direction at the neck's joint), all of the turn is twist, and the
+    // key turns about the neck by its twist share: half, all (the neck's first key), none (the
+    // chest's end key).
+    NeckJoint j;
+    j.key.twist_direction = j.neck;
+    for (const double share : {0.5, 1.0}) {
+        j.key.twist_fraction = share;
+        const dquat t = j.turn(60.0);
+        EXPECT_NEAR(glm::degrees(glm::angle(t)), 60.0 * share, 1e-5) << share;  // the pose is float
+        EXPECT_LT(off_axis_degrees(t, j.neck), 1e-4) << share;
+    }
+    j.key.twist_fraction = 0.0;
+    EXPECT_NEAR(glm::angle(j.turn(60.0)), 0.0, 1e-7);
+    // About the key's normal (no twist direction, as blobs before version 4), the same turn
+    // reads partly as swing, and the key turns about a line off the neck: the skin between
+    // it and the neck's keys does not turn about the neck.
+    j.key.twist_direction = dvec3(0.0);
+    j.key.twist_fraction = 0.0;
+    EXPECT_GT(glm::degrees(glm::angle(j.turn(60.0))), 1.0);
+    j.key.twist_fraction = 1.0;
+    EXPECT_GT(off_axis_degrees(j.turn(60.0), j.neck), 1.0);
 }
 
 }  // namespace
