@@ -87,26 +87,22 @@ std::vector<CorrectionRecord> get_corrections(Reader& r, const std::vector<std::
     return records;
 }
 
-/// Version 3 appends, per sweep and key, its twist spread (double).
-void put_twist_spreads(Writer& w, const Rig& rig) {
+/// Version 3 appends, per sweep and key, its twist spread (double); version 4 then, per sweep
+/// and key, its twist direction (3 doubles; zero: the key's normal). Both validated by add_sweep.
+void put_twist_sections(Writer& w, const Rig& rig) {
     for (const Sweep& sw : rig.sweeps)
         for (const KeyEllipse& k : sw.keys) w.put(k.twist_spread);
-}
-
-void get_twist_spreads(Reader& r, std::vector<std::vector<KeyEllipse>>& sweeps) {
-    for (std::vector<KeyEllipse>& keys : sweeps)
-        for (KeyEllipse& k : keys) k.twist_spread = r.get<double>();  // validated by add_sweep
-}
-
-/// Version 4 appends, per sweep and key, its twist direction (3 doubles; zero: the normal).
-void put_twist_directions(Writer& w, const Rig& rig) {
     for (const Sweep& sw : rig.sweeps)
         for (const KeyEllipse& k : sw.keys) w.put_glm(k.twist_direction);
 }
 
-void get_twist_directions(Reader& r, std::vector<std::vector<KeyEllipse>>& sweeps) {
-    for (std::vector<KeyEllipse>& keys : sweeps)
-        for (KeyEllipse& k : keys) k.twist_direction = r.get_glm<dvec3>();  // validated by add_sweep
+void get_twist_sections(Reader& r, uint32_t version, std::vector<std::vector<KeyEllipse>>& sweeps) {
+    if (version >= 3)
+        for (std::vector<KeyEllipse>& keys : sweeps)
+            for (KeyEllipse& k : keys) k.twist_spread = r.get<double>();
+    if (version >= 4)
+        for (std::vector<KeyEllipse>& keys : sweeps)
+            for (KeyEllipse& k : keys) k.twist_direction = r.get_glm<dvec3>();
 }
 
 constexpr char kRigMagic[4] = {'S', 'D', 'R', 'G'};
@@ -118,8 +114,7 @@ std::vector<uint8_t> serialize_rig(const Rig& rig) {
     Writer w;
     w.bytes = rig_payload(rig);
     put_corrections(w, rig);
-    put_twist_spreads(w, rig);
-    put_twist_directions(w, rig);
+    put_twist_sections(w, rig);
     return frame(kRigMagic, kRigFormatVersion, w.bytes);
 }
 
@@ -165,8 +160,7 @@ Rig deserialize_rig(const uint8_t* data, size_t size) {
     }
     std::vector<CorrectionRecord> corrections;
     if (version >= 2) corrections = get_corrections(r, sweeps);
-    if (version >= 3) get_twist_spreads(r, sweeps);
-    if (version >= 4) get_twist_directions(r, sweeps);
+    get_twist_sections(r, version, sweeps);
     if (r.left() != 0) throw CorruptData("rig blob has trailing bytes");
     for (std::vector<KeyEllipse>& keys : sweeps) rig.add_sweep(std::move(keys));
     if (version >= 2) rig.set_corrections(corrections);

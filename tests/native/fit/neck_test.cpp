@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 
 namespace sd {
 namespace {
@@ -33,39 +34,54 @@ struct NeckCase {
 
 void PrintTo(const NeckCase& c, std::ostream* os) { *os << c.file; }
 
-class NeckTwist : public ::testing::TestWithParam<NeckCase> {};
+/// The case's character fitted and bound by the product, its neck bones and everything above
+/// them turned 60° about the line from the neck's base to the head's joint (as skineval's
+/// neck_twist_60), deformed by Sweep Deform and by linear blend skinning.
+class NeckTwist : public ::testing::TestWithParam<NeckCase> {
+protected:
+    void SetUp() override {
+        const NeckCase& nc = GetParam();
+        const std::string path = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + nc.file;
+        if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
+        fitted = std::make_unique<character_fit::Fitted>(character_fit::fit_and_bind(io::load_gltf_character(path)));
+        const io::Character& c = fitted->character;
+        const Skeleton& s = fitted->skeleton;
+        const int neck = character_fit::bone_named(c, nc.neck), head = character_fit::bone_named(c, nc.head);
+        ASSERT_TRUE(neck >= 0 && head >= 0);
+        base = s.heads[neck];
+        axis = glm::normalize(s.heads[head] - base);
+        length = glm::length(s.heads[head] - base);
+        const std::vector<float> pose = testing::turned_pose(s, neck, testing::turn_about(base, axis, kPi / 3.0));
+        out.resize(c.positions.size());
+        lbs.resize(c.positions.size());
+        fitted->deformer->deform(pose.data(), out.data());
+        character_fit::skin_linearly(c, s, pose.data(), lbs.data());
+    }
+    dvec3 rest(size_t v) const {
+        const std::vector<float>& p = fitted->character.positions;
+        return dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]);
+    }
+    static dvec3 at(const std::vector<float>& p, size_t v) { return dvec3(p[3 * v], p[3 * v + 1], p[3 * v + 2]); }
+
+    std::unique_ptr<character_fit::Fitted> fitted;
+    dvec3 base{0.0}, axis{0.0};
+    double length = 0.0;
+    std::vector<float> out, lbs;  ///< posed by Sweep Deform, by linear blend skinning
+};
 
 TEST_P(NeckTwist, TurnsTheNeckWithoutShearingItsBase) {
-    const NeckCase& nc = GetParam();
-    const std::string path = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + nc.file;
-    if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
-    const character_fit::Fitted fitted = character_fit::fit_and_bind(io::load_gltf_character(path));
-    const io::Character& c = fitted.character;
-    const Skeleton& s = fitted.skeleton;
-    Deformer& d = *fitted.deformer;
-    const int V = static_cast<int>(c.positions.size() / 3);
-    const int neck = character_fit::bone_named(c, nc.neck), head = character_fit::bone_named(c, nc.head);
-    ASSERT_TRUE(neck >= 0 && head >= 0);
-
-    // The neck and everything above it turned 60° about the line from the neck's base to the
-    // head's joint; the skin from a neck's length below the base to the head's joint is watched.
-    const dvec3 base = s.heads[neck], top = s.heads[head];
-    const dvec3 axis = glm::normalize(top - base);
-    const double length = glm::length(top - base);
-    const std::vector<float> pose = testing::turned_pose(s, neck, testing::turn_about(base, axis, kPi / 3.0));
+    // The skin from a neck's length below the base to the head's joint is watched.
+    const io::Character& c = fitted->character;
+    const size_t V = c.positions.size() / 3;
     std::vector<char> watched(V, 0);
-    for (int v = 0; v < V; ++v) {
-        const dvec3 p(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
-        const double along = glm::dot(p - base, axis);
-        watched[v] = along > -length && along < length && glm::length(p - base - along * axis) < 1.5 * length;
+    for (size_t v = 0; v < V; ++v) {
+        const double along = glm::dot(rest(v) - base, axis);
+        watched[v] = along > -length && along < length && glm::length(rest(v) - base - along * axis) < 1.5 * length;
     }
-    std::vector<float> out(c.positions.size()), lbs(c.positions.size());
-    d.deform(pose.data(), out.data());
-    character_fit::skin_linearly(c, s, pose.data(), lbs.data());
     const double sweep = glm::degrees(testing::max_dihedral_change(c, out, watched));
     const double skinning = glm::degrees(testing::max_dihedral_change(c, lbs, watched));
-    std::printf("%s: neck turned 60 deg, largest crease at the neck %.1f deg (linear blend skinning %.1f)\n", nc.file,
-                sweep, skinning);
+    std::printf("%s: neck turned 60 deg, largest crease at the neck %.1f deg (linear blend skinning %.1f)\n",
+                GetParam().file, sweep, skinning);
     // Within 6° of linear blend skinning's sharpest bend, which turns the neck's skin with its
     // bones (CesiumMan with half the twist at the neck's first key: 43.3° against 24.9°; 28.4°
     // while the armpit's web joined the arms as points, 30.0° since it joins as frames).
@@ -73,51 +89,31 @@ TEST_P(NeckTwist, TurnsTheNeckWithoutShearingItsBase) {
 }
 
 TEST_P(NeckTwist, KeepsEverySkinPointsDistanceFromTheNeck) {
-    // Turned about its own line (as skineval's neck_twist_60 turns it and measures the skin's
-    // distance from the segment from the neck's base to the head's joint), the neck carries
-    // its skin round that line: every influence of the skin there turns about it, the chest
-    // not at all, so no point moves nearer to or farther from it. Before the neck's joint took
-    // its twist about the neck (its bisecting normal instead, the chest's end key half of it):
-    // 1.0035 on the 13K MakeHuman, 1.023 on CesiumMan, where Preserve Volume keeps 1.0000.
-    const NeckCase& nc = GetParam();
-    const std::string path = std::string(SWEEPDEFORM_SHARED_DATA_DIR) + "/humans/" + nc.file;
-    if (!std::filesystem::exists(path)) GTEST_SKIP() << "../shared/data not found (" << path << "): skipped";
-    const character_fit::Fitted fitted = character_fit::fit_and_bind(io::load_gltf_character(path));
-    const io::Character& c = fitted.character;
-    const Skeleton& s = fitted.skeleton;
-    const int neck = character_fit::bone_named(c, nc.neck), head = character_fit::bone_named(c, nc.head);
-    ASSERT_TRUE(neck >= 0 && head >= 0);
-    const dvec3 base = s.heads[neck], top = s.heads[head];
-    const dvec3 axis = glm::normalize(top - base);
-    const double length = glm::length(top - base);
-    const double turn = kPi / 3.0;
-    const std::vector<float> pose = testing::turned_pose(s, neck, testing::turn_about(base, axis, turn));
-    std::vector<float> out(c.positions.size()), lbs(c.positions.size());
-    fitted.deformer->deform(pose.data(), out.data());
-    character_fit::skin_linearly(c, s, pose.data(), lbs.data());
-    // The distance to the segment, at rest and posed (the segment turns about itself).
-    const auto distance = [&](const dvec3& p) {
+    // Turned about its own line (skineval's neck_twist_60 measures the skin's distance from the
+    // segment from the neck's base to the head's joint), the neck carries its skin round that
+    // line: every influence of the skin there turns about it, the chest not at all, so no point
+    // moves nearer to or farther from it. Before the neck's joint took its twist about the neck
+    // (its bisecting normal instead, the chest's end key half of it): 1.0035 on the 13K
+    // MakeHuman, 1.026 on CesiumMan, where Preserve Volume keeps 1.0000.
+    const auto distance = [&](const dvec3& p) {  // to the segment, which turns about itself
         const double t = std::clamp(glm::dot(p - base, axis), 0.0, length);
         return glm::length(p - (base + t * axis));
     };
     double largest = 0.0, moved_below = 0.0;
-    for (size_t v = 0; v < c.positions.size() / 3; ++v) {
-        const dvec3 p(c.positions[3 * v], c.positions[3 * v + 1], c.positions[3 * v + 2]);
-        const dvec3 q(out[3 * v], out[3 * v + 1], out[3 * v + 2]);
-        const double d0 = distance(p);
-        if (glm::dot(p - base, axis) > -length && d0 < 1.5 * length && d0 > 0.1 * length)
-            largest = std::max(largest, distance(q) / d0);
+    for (size_t v = 0; v < fitted->character.positions.size() / 3; ++v) {
+        const double along = glm::dot(rest(v) - base, axis), d0 = distance(rest(v));
+        if (along > -length && d0 < 1.5 * length && d0 > 0.1 * length)
+            largest = std::max(largest, distance(at(out, v)) / d0);
         // The chest a neck's length below its base, where the rig's own weights leave the
         // skin in place (on CesiumMan the arms hang from the neck and turn with it), stays.
-        const dvec3 l(lbs[3 * v], lbs[3 * v + 1], lbs[3 * v + 2]);
-        if (glm::dot(p - base, axis) < -length && glm::length(l - p) == 0.0)
-            moved_below = std::max(moved_below, glm::length(q - p));
+        if (along < -length && at(lbs, v) == rest(v))
+            moved_below = std::max(moved_below, glm::length(at(out, v) - rest(v)));
     }
     std::printf("%s: neck turned 60 deg, skin's largest distance from the neck %.7f of rest, chest moved %.2g m\n",
-                nc.file, largest, moved_below);
+                GetParam().file, largest, moved_below);
     // Float rounding of the positions: a micrometre in a centimetre.
     EXPECT_LT(largest, 1.0 + 1e-4) << "skin moved off the neck's line";
-    if (nc.chest_still) EXPECT_LT(moved_below, 1e-5 * length) << "the chest turned with the neck";
+    if (GetParam().chest_still) EXPECT_LT(moved_below, 1e-5 * length) << "the chest turned with the neck";
 }
 
 INSTANTIATE_TEST_SUITE_P(Characters, NeckTwist,
