@@ -9,7 +9,8 @@ side only, and the belt around the waist and the line at the armpit showed from 
 POSE: raise (the upper arm raised D degrees from hanging, in the body's frontal plane, as
 skineval's shoulder_abd_*), twist (the hand turned D degrees about its bone, forearm_twist_*),
 hip (thigh flexed D degrees, hip_flex_*), knee (calf flexed D degrees, knee_flex_*), elbow
-(forearm flexed D degrees, elbow_flex_*). Azimuths in degrees about the joint, 0 from the front,
+(forearm flexed D degrees, elbow_flex_*), neck (the neck turned D degrees about the line from its
+base to the head's joint, neck_twist_*). Azimuths in degrees about the joint, 0 from the front,
 90 from the body's left; the elevation looks from above (positive) or below; --size is each
 view's orthographic width in metres. Rows: Preserve Volume, Sweep Deform; a column per azimuth.
 """
@@ -31,7 +32,7 @@ import render_shoulder_raise  # noqa: E402  (raise_arm)
 
 #: pose -> (the joint's bone the views look at, default degrees)
 POSES = {"raise": ("upperarm_l", 160.0), "twist": ("lowerarm_l", 180.0), "hip": ("thigh_l", 90.0),
-         "knee": ("calf_l", 135.0), "elbow": ("lowerarm_l", 120.0)}
+         "knee": ("calf_l", 135.0), "elbow": ("lowerarm_l", 120.0), "neck": ("neck_01", 60.0)}
 
 
 def parse_args():
@@ -48,6 +49,10 @@ def pose(arm, name, degrees):
     """Poses `arm` (at rest) as `name` by `degrees`."""
     if name == "raise":
         render_shoulder_raise.raise_arm(arm, "upperarm_l", degrees)
+    elif name == "neck":
+        world = arm.matrix_world
+        along = ((world @ arm.pose.bones["head"].head) - (world @ arm.pose.bones["neck_01"].head)).normalized()
+        flexion.turn_about_head(arm, "neck_01", Matrix.Rotation(np.radians(degrees), 3, along))
     elif name == "twist":
         pb, world = arm.pose.bones["hand_l"], arm.matrix_world
         along = ((world @ pb.tail) - (world @ pb.head)).normalized()
