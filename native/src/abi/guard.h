@@ -97,7 +97,6 @@ inline sd_status write_blob(const std::vector<uint8_t>& blob, uint8_t* buffer, i
     return write_bytes(blob.data(), blob.size(), buffer, capacity, out_size, "the blob");
 }
 
-/// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
 /// The counts a frame's call gives, against the deformer's rig and binding.
 inline sd_status check_frame_counts(const sd_deformer* d, int32_t bone_count, int32_t vertex_count) {
     if (bone_count != d->deformer->rig().skeleton.bone_count())
@@ -143,6 +142,7 @@ inline void require_within(const float* p, size_t n, float limit, const char* wh
                        std::to_string(i));
 }
 
+/// The rig's sweep `sweep`; throws InvalidInput for a NULL rig or an index out of range.
 inline const sd::Sweep& sweep_of(const sd_rig* rig, int32_t sweep) {
     SD_REQUIRE(rig, "rig is NULL");
     SD_REQUIRE(sweep >= 0 && sweep < static_cast<int32_t>(rig->rig.sweeps.size()),
