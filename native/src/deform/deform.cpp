@@ -4,6 +4,7 @@
 #include "math/flush_denormals.h"
 #include "math/smoothstep.h"
 #include "rig/key_pose.h"
+#include "rig/bent_joint_trajectory.h"
 #include "rig/twisted_trajectory.h"
 
 #include <algorithm>
@@ -389,6 +390,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
         SweepGeometry g(centers, rotations);
+        tighten_bent_joints(s, g);
         key_rotations_[si] = g.key_rotations();
 
         // Volume control (Sect. 4.4) on the key half-axes, as far as it can be trusted in
@@ -443,6 +445,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             if (!s.bends_smoothly && (a != a_before || b != b_before)) {
                 hold_growth_off_the_fold(s, g, a_before, b_before, a, b, centers);
                 g = SweepGeometry(centers, rotations);
+                tighten_bent_joints(s, g);
             }
             volume_before[si] = before;
             volume_after[si] = r.after;

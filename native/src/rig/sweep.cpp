@@ -11,6 +11,19 @@ SweepGeometry::SweepGeometry(const std::vector<dvec3>& centers, const std::vecto
         if (glm::dot(q_[i - 1], q_[i]) < 0.0) q_[i] = -q_[i];
 }
 
+void SweepGeometry::scale_key_tangent(int key, double factor) {
+    if (key <= 0 || key >= static_cast<int>(spans_.size())) return;
+    CubicSpan& before = spans_[key - 1];  // ends at the key: + (u^3 - u^2) dm1
+    const dvec3 dm1 = (factor - 1.0) * before.derivative(1.0);
+    before.c[2] -= dm1;
+    before.c[3] += dm1;
+    CubicSpan& after = spans_[key];  // starts at the key: + (u^3 - 2u^2 + u) dm0
+    const dvec3 dm0 = (factor - 1.0) * after.c[1];
+    after.c[1] += dm0;
+    after.c[2] -= 2.0 * dm0;
+    after.c[3] += dm0;
+}
+
 dvec3 sweep_point(const SweepGeometry& g, const HalfAxisFunctions& h, int span, double u, double theta) {
     const dvec2 ab = h.at(span, u);
     return g.rotation(span, u) * dvec3(ab.x * std::cos(theta), ab.y * std::sin(theta), 0.0) + g.center(span, u);

@@ -38,6 +38,11 @@ public:
     dmat3 rotation(int span, double u) const { return glm::mat3_cast(glm::normalize(raw_rotation(span, u))); }
     dvec3 normal(int span, double u) const { return rotation(span, u)[2]; }
 
+    /// Scales the trajectory's tangent at interior key `key` by `factor` (both spans meeting
+    /// there, each changed by the Hermite basis function of its end: positions at the keys
+    /// stay, and the tangent stays continuous).
+    void scale_key_tangent(int key, double factor);
+
 private:
     std::vector<double> knots_;
     std::vector<CubicSpan> spans_;
