@@ -676,7 +676,8 @@ SD_API sd_status sd_rig_pose_keys(const sd_rig* rig, int32_t sweep, int32_t bone
 /* The corrected sweep in a pose (NULL = rest), before volume control, at `count` parameters
  * u in [0, 1] as in sd_rig_evaluate_sweep: centers #count*3, rotations #count*9
  * (column-major), half_axes #count*2; any may be NULL. The centers are the trajectory the
- * deformer gives the skin (a twisted limb's turns with its twist about the bone). */
+ * deformer gives the skin (a twisted limb's turns with its twist about the bone; a limb's
+ * tangent at a joint bent up to a right angle shortened). */
 SD_API sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t bone_count, const float* pose,
                                              int32_t count, const float* u, float* centers, float* rotations,
                                              float* half_axes);
