@@ -3,8 +3,8 @@
 #include "deform/frame_blend.h"
 #include "math/flush_denormals.h"
 #include "math/smoothstep.h"
-#include "rig/key_pose.h"
 #include "rig/bent_joint_trajectory.h"
+#include "rig/key_pose.h"
 #include "rig/twisted_trajectory.h"
 
 #include <algorithm>
