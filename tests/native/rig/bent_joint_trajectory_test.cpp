@@ -50,9 +50,9 @@ TEST(BentJointTrajectory, TheCutGrowsWithTheBendSinceRestAndFadesPastARightAngle
     EXPECT_EQ(bent_joint_tangent_cut(right, 0.0, 0.3), 0.0);             // at rest
     EXPECT_NEAR(bent_joint_tangent_cut(right, right, 0.3), 0.4, 1e-12);  // 0.8 sin^2(45°)
     EXPECT_NEAR(bent_joint_tangent_cut(right, 0.25 * kPi, 0.3), 0.8 * std::pow(std::sin(kPi / 8), 2), 1e-12);
-    EXPECT_LT(bent_joint_tangent_cut(1.8, 1.8, 0.3), 0.4 * 0.8);                    // fading past 90°
-    EXPECT_EQ(bent_joint_tangent_cut(2.0 * kPi / 3.0, 2.0 * kPi / 3.0, 0.3), 0.0);  // gone at 120°
-    EXPECT_EQ(bent_joint_tangent_cut(right, right, 0.5), 0.0);                      // a thick joint
+    EXPECT_LT(bent_joint_tangent_cut(1.8, 1.8, 0.3), 0.8 * std::pow(std::sin(0.9), 2));  // fading past 90°
+    EXPECT_EQ(bent_joint_tangent_cut(2.0 * kPi / 3.0, 2.0 * kPi / 3.0, 0.3), 0.0);       // gone at 120°
+    EXPECT_EQ(bent_joint_tangent_cut(right, right, 0.5), 0.0);                           // a thick joint
     EXPECT_LT(bent_joint_tangent_cut(right, right, 0.46), 0.4);
 }
 
@@ -80,7 +80,7 @@ TEST(BentJointTrajectory, AnElbowAtARightAngleComesIntoTheJointNearerTheUpperArm
     EXPECT_NEAR(glm::length(tight.tangent(3, 0.0)) / glm::length(paper.tangent(3, 0.0)), 0.6, 1e-9);
 }
 
-TEST(BentJointTrajectory, TheRestPoseATwistAndADeepBendKeepThePapersCubic) {
+TEST(BentJointTrajectory, TheRestPoseATwistADeepBendAndAThickJointKeepThePapersCubic) {
     const test::Arm arm;
     EXPECT_TRUE(same_spans(posed_arm(arm, 0.0, 0.0, false), posed_arm(arm, 0.0, 0.0, true)));
     EXPECT_TRUE(same_spans(posed_arm(arm, 0.0, kPi, false), posed_arm(arm, 0.0, kPi, true)));
@@ -88,6 +88,9 @@ TEST(BentJointTrajectory, TheRestPoseATwistAndADeepBendKeepThePapersCubic) {
         same_spans(posed_arm(arm, glm::radians(150.0), 0.0, false), posed_arm(arm, glm::radians(150.0), 0.0, true)));
     EXPECT_FALSE(
         same_spans(posed_arm(arm, glm::radians(60.0), 0.0, false), posed_arm(arm, glm::radians(60.0), 0.0, true)));
+    // An arm as thick as a third of its link (fold 0.3 x 90° / (2/3) = 0.71) keeps it at 90° too.
+    const test::Arm thick(0.3, 0.3);
+    EXPECT_TRUE(same_spans(posed_arm(thick, 0.5 * kPi, 0.0, false), posed_arm(thick, 0.5 * kPi, 0.0, true)));
 }
 
 }  // namespace
