@@ -276,8 +276,7 @@ sd_status sd_rig_evaluate_posed_sweep(const sd_rig* rig, int32_t sweep, int32_t 
         sd::HalfAxisFunctions h = s.rest_half_axes;
         sd::pose_keys(s, p, c, q);
         if (s.has_corrections) sd::correct_keys(s, p, c, q, h.a, h.b);
-        sd::SweepGeometry g(c, q);
-        sd::tighten_bent_joints(s, g);
+        const sd::SweepGeometry g = sd::posed_geometry(s, c, q);
         // The trajectory the deformer gives the skin (a twisted limb's turns with its twist).
         const std::vector<std::array<sd::CubicSpan, 2>> twisted = sd::twisted_trajectory(s, g);
         for (int i = 0; i < count; ++i) {

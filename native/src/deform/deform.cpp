@@ -389,8 +389,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
         // half-axes are where the volume controller starts from.
         std::vector<double> a = s.rest_half_axes.a, b = s.rest_half_axes.b;
         if (s.has_corrections) correct_keys(s, pose, centers, rotations, a, b);
-        SweepGeometry g(centers, rotations);
-        tighten_bent_joints(s, g);
+        SweepGeometry g = posed_geometry(s, centers, rotations);
         key_rotations_[si] = g.key_rotations();
 
         // Volume control (Sect. 4.4) on the key half-axes, as far as it can be trusted in
@@ -422,7 +421,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
                 std::vector<dvec3> shifts;
                 if (restore_local_volume(s, g, strength, hold, a, b, shifts)) {  // keys moved: a new sweep
                     for (int k = 0; k < s.key_count(); ++k) centers[k] += shifts[k];
-                    g = SweepGeometry(centers, rotations);
+                    g = posed_geometry(s, centers, rotations);
                     density = volume_density(s.quadrature, g);
                     form = VolumeForm(s.quadrature, density);
                 }
@@ -444,8 +443,7 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             }
             if (!s.bends_smoothly && (a != a_before || b != b_before)) {
                 hold_growth_off_the_fold(s, g, a_before, b_before, a, b, centers);
-                g = SweepGeometry(centers, rotations);
-                tighten_bent_joints(s, g);
+                g = posed_geometry(s, centers, rotations);
             }
             volume_before[si] = before;
             volume_after[si] = r.after;

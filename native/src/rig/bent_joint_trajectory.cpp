@@ -44,4 +44,10 @@ void tighten_bent_joints(const Sweep& s, SweepGeometry& posed) {
     }
 }
 
+SweepGeometry posed_geometry(const Sweep& s, const std::vector<dvec3>& centers, const std::vector<dquat>& rotations) {
+    SweepGeometry g(centers, rotations);
+    tighten_bent_joints(s, g);
+    return g;
+}
+
 }  // namespace sd

@@ -37,4 +37,8 @@ double bent_joint_tangent_cut(double bend, double since, double fold);
 /// key as above; a thick chain (a torso) keeps the paper's cubic.
 void tighten_bent_joints(const Sweep& s, SweepGeometry& posed);
 
+/// The posed geometry of sweep `s` through its posed keys, its trajectory tightened at bent
+/// joints: what the deformer gives the skin and sd_rig_evaluate_posed_sweep shows.
+SweepGeometry posed_geometry(const Sweep& s, const std::vector<dvec3>& centers, const std::vector<dquat>& rotations);
+
 }  // namespace sd

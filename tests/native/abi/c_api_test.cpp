@@ -474,9 +474,8 @@ TEST(CApi, AFrameInOnePassIsTheThreeCallsToTheBit) {
     ASSERT_EQ(sd_deform(d, 3, arm.rest.data(), V, rest.data()), SD_OK);
     for (int i = 0; i < 3 * V; ++i) base[i] = rest[i] + 1e-3f * static_cast<float>(i % 11);
     for (const int32_t count : {0, M})
-        for (const float limit :
-             {3.0f,
-              1.1f})  // 1.1: some of the bent skin is beyond it (1.2 was, until the elbow's tangent was shortened)
+        // 1.1: some of the bent skin is beyond it (1.2 was, until the elbow's tangent was shortened)
+        for (const float limit : {3.0f, 1.1f})
             for (const bool with_base : {false, true})
                 for (const int subtract : {0, 1}) {
                     SCOPED_TRACE("moved " + std::to_string(count) + " limit " + std::to_string(limit) + " base " +
