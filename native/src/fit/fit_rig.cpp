@@ -1,6 +1,7 @@
 #include "fit/fit_rig.h"
 
 #include "fit/deform_hierarchy.h"
+#include "fit/spine_skin.h"
 
 #include <nlohmann/json.hpp>
 
@@ -88,7 +89,8 @@ std::string make_report(const FitInput& in, const FitResult& r) {
                            {"vertices_on_sweeps", r.weights.vertices_on_sweeps},
                            {"vertices_rigid_only", r.weights.vertices_rigid_only},
                            {"vertices_blended", r.weights.vertices_blended},
-                           {"vertices_from_nearest_bone", r.weights.vertices_from_nearest_bone}}},
+                           {"vertices_from_nearest_bone", r.weights.vertices_from_nearest_bone},
+                           {"vertices_beside_spine", r.weights.vertices_beside_spine}}},
                          {"notes", r.chains.notes},
                          {"warnings", r.warnings}};
     return report.dump(-1, ' ', false, Json::error_handler_t::replace);
@@ -255,6 +257,11 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
     r.weights = use_skin ? weights_from_skin(mesh, s, owners, r.chain_sweep, in.skin_slots, in.skin_bones,
                                              in.skin_weights, options.regions)
                          : weights_from_geometry(mesh, r.rig, r.chains, owners, r.chain_sweep, options.regions);
+    if (use_skin) {
+        r.weights.vertices_beside_spine =
+            give_spine_skin_to_bones(mesh, r.rig, in.skin_slots, in.skin_bones, in.skin_weights, r.weights);
+        count_region(r.weights, in.vertex_count);
+    }
     const double bound = static_cast<double>(r.weights.vertices_bound) / in.vertex_count;
     if (bound < 1.0) r.warnings.push_back(fmt(100.0 * (1.0 - bound)) + " % of the vertices got no weight");
     r.report = make_report(in, r);

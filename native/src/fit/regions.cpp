@@ -51,27 +51,6 @@ void write_sweeps(std::vector<std::pair<float, int>>& entries, float total, int 
     }
 }
 
-void count_region(RegionWeights& r, int V) {
-    r.vertices_bound = r.vertices_on_sweeps = r.vertices_rigid_only = r.vertices_blended = 0;
-    for (int v = 0; v < V; ++v) {
-        double total = 0.0;
-        int sweeps = 0;
-        for (int i = 0; i < r.sweep_slots; ++i)
-            if (r.sweep_ids[static_cast<size_t>(v) * r.sweep_slots + i] >= 0 &&
-                r.sweep_weights[static_cast<size_t>(v) * r.sweep_slots + i] > 0.0f) {
-                total += r.sweep_weights[static_cast<size_t>(v) * r.sweep_slots + i];
-                ++sweeps;
-            }
-        for (int i = 0; i < r.bone_slots; ++i)
-            if (r.bone_ids[static_cast<size_t>(v) * r.bone_slots + i] >= 0)
-                total += r.bone_weights[static_cast<size_t>(v) * r.bone_slots + i];
-        r.vertices_bound += total > 0.0 ? 1 : 0;
-        r.vertices_on_sweeps += sweeps > 0 ? 1 : 0;
-        r.vertices_rigid_only += sweeps == 0 && total > 0.0 ? 1 : 0;
-        r.vertices_blended += sweeps >= 2 ? 1 : 0;
-    }
-}
-
 /// Per vertex the chain whose sweep it lies most inside of (measured in the sweep's own
 /// ellipse radii), or -1 where its nearest bone is a rigid part. Nearest bones alone
 /// misjudge where limbs lie close to the body (the chest beside a hanging arm is nearer the
@@ -113,6 +92,27 @@ std::vector<int> sweep_labels(const FitMesh& mesh, const Rig& rig, const BoneOwn
 }
 
 }  // namespace
+
+void count_region(RegionWeights& r, int V) {
+    r.vertices_bound = r.vertices_on_sweeps = r.vertices_rigid_only = r.vertices_blended = 0;
+    for (int v = 0; v < V; ++v) {
+        double total = 0.0;
+        int sweeps = 0;
+        for (int i = 0; i < r.sweep_slots; ++i)
+            if (r.sweep_ids[static_cast<size_t>(v) * r.sweep_slots + i] >= 0 &&
+                r.sweep_weights[static_cast<size_t>(v) * r.sweep_slots + i] > 0.0f) {
+                total += r.sweep_weights[static_cast<size_t>(v) * r.sweep_slots + i];
+                ++sweeps;
+            }
+        for (int i = 0; i < r.bone_slots; ++i)
+            if (r.bone_ids[static_cast<size_t>(v) * r.bone_slots + i] >= 0)
+                total += r.bone_weights[static_cast<size_t>(v) * r.bone_slots + i];
+        r.vertices_bound += total > 0.0 ? 1 : 0;
+        r.vertices_on_sweeps += sweeps > 0 ? 1 : 0;
+        r.vertices_rigid_only += sweeps == 0 && total > 0.0 ? 1 : 0;
+        r.vertices_blended += sweeps >= 2 ? 1 : 0;
+    }
+}
 
 PartShares shares_from_skin(int V, int slots, const int32_t* bones, const float* weights, const BoneOwners& owners,
                             int C) {

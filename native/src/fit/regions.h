@@ -68,7 +68,11 @@ struct RegionWeights {
     int vertices_rigid_only = 0;         ///< bone-driven only
     int vertices_blended = 0;            ///< on two or more sweeps
     int vertices_from_nearest_bone = 0;  ///< had no skin weight: nearest bone instead
+    int vertices_beside_spine = 0;       ///< part of their trunk weight given to the spine's bones (spine_skin.h)
 };
+
+/// Recounts vertices_bound, _on_sweeps, _rigid_only and _blended from the weights.
+void count_region(RegionWeights& r, int vertex_count);
 
 struct RegionOptions {
     int smoothing_iterations = 6;
