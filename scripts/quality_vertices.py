@@ -34,7 +34,8 @@ def main():
         if not np.array_equal(w["vertex"], z["vertex"]):
             raise SystemExit("quality_vertices.py: the two files hold different vertices (another body or test?)")
         other = ratios(w)
-    print("%s: r_max %.4f" % (a.first, np.nanmax(r)) + ("; %s: %.4f" % (a.second, np.nanmax(other)) if a.second else ""))
+    head = "%s: r_max %.4f" % (a.first, np.nanmax(r))
+    print(head + ("; %s: %.4f" % (a.second, np.nanmax(other)) if a.second else ""))
     for i in np.argsort(-np.nan_to_num(r, nan=-1.0))[: a.top]:
         line = "  v%-7d r %.4f  d0 %.4f  segment %d  rest (%.3f, %.3f, %.3f)" % (
             z["vertex"][i], r[i], z["d0"][i], z["seg0"][i], *z["rest"][i])
