@@ -40,5 +40,4 @@ def axis_distance_ratio(test, ev, P0, P1, mask):
 
 
 measure.axis_distance_ratio = axis_distance_ratio
-sys.modules["measure"] = measure
 runpy.run_path(os.path.join(HERE, "skineval_compat.py"), run_name="__main__")

@@ -324,6 +324,13 @@ std::vector<int> Chain::links() const {
     return out;
 }
 
+std::vector<dvec3> Chain::joints(const Skeleton& s) const {
+    std::vector<dvec3> out;
+    for (int b : links()) out.push_back(s.heads[b]);
+    out.push_back(end_bone >= 0 ? s.heads[end_bone] : s.tails[bones.back()]);
+    return out;
+}
+
 ChainSet find_chains(const Skeleton& s, const std::vector<std::string>& names, const std::vector<double>& bone_mass) {
     const Tree t(s, bone_mass);
     ChainSet out;

@@ -33,6 +33,10 @@ struct Chain {
 
     /// The swept links: the first bone of each segment, from bones[first_swept] on.
     std::vector<int> links() const;
+    /// The joints the sweep runs through, #links + 1: each link's head, then the end bone's head
+    /// (the last bone's tail when there is none). Joint to joint, not head to tail: a glTF rig's
+    /// tails are guesses, and a link cut into several bones ends where its last bone does.
+    std::vector<dvec3> joints(const Skeleton& s) const;
 };
 
 /// Body axes found from the skeleton: up from the hips to the head, left from the legs,

@@ -258,8 +258,8 @@ FitResult fit_rig(const FitInput& in, const FitOptions& options) {
                                              in.skin_weights, options.regions)
                          : weights_from_geometry(mesh, r.rig, r.chains, owners, r.chain_sweep, options.regions);
     if (use_skin) {
-        r.weights.vertices_beside_spine =
-            give_spine_skin_to_bones(mesh, r.rig, in.skin_slots, in.skin_bones, in.skin_weights, r.weights);
+        r.weights.vertices_beside_spine = give_spine_skin_to_bones(mesh, r.rig, r.chains, r.chain_sweep, in.skin_slots,
+                                                                   in.skin_bones, in.skin_weights, r.weights);
         count_region(r.weights, in.vertex_count);
     }
     const double bound = static_cast<double>(r.weights.vertices_bound) / in.vertex_count;

@@ -54,8 +54,7 @@ dvec3 first_link_direction(const Skeleton& s, const ChainSet& set, int bone) {
     for (const Chain& c : set.chains) {
         const std::vector<int> links = c.links();
         if (links.empty() || links[0] != bone) continue;
-        const dvec3 to =
-            links.size() > 1 ? s.heads[links[1]] : (c.end_bone >= 0 ? s.heads[c.end_bone] : s.tails[c.bones.back()]);
+        const dvec3 to = c.joints(s)[1];
         if (glm::length(to - s.heads[bone]) > 1e-4 * set.size) return to - s.heads[bone];
     }
     return s.tails[bone] - s.heads[bone];
@@ -65,9 +64,7 @@ std::vector<KeySpec> key_specs(const Skeleton& s, const ChainSet& set, const Cha
     // A segment cut into several bones is one link, riding its first bone.
     const std::vector<int> links = ch.links();
     const int m = static_cast<int>(links.size());
-    std::vector<dvec3> joint(m + 1);
-    for (int i = 0; i < m; ++i) joint[i] = s.heads[links[i]];
-    joint[m] = ch.end_bone >= 0 ? s.heads[ch.end_bone] : s.tails[ch.bones.back()];
+    const std::vector<dvec3> joint = ch.joints(s);
     std::vector<dvec3> dir(m);
     std::vector<double> len(m);
     for (int i = 0; i < m; ++i) {

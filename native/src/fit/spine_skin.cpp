@@ -8,37 +8,29 @@
 
 namespace sd::fit {
 
-int give_spine_skin_to_bones(const FitMesh& mesh, const Rig& rig, int slots, const int32_t* bones, const float* weights,
+int give_spine_skin_to_bones(const FitMesh& mesh, const Rig& rig, const ChainSet& chains,
+                             const std::vector<int>& chain_sweep, int slots, const int32_t* bones, const float* weights,
                              RegionWeights& regions) {
     const int V = mesh.vertex_count();
     const Skeleton& s = rig.skeleton;
     struct Trunk {
         int sweep;
         std::vector<int> links;
-        std::vector<std::pair<dvec3, dvec3>> segments;  // joint to joint, as the chain runs
+        std::vector<std::pair<dvec3, dvec3>> segments;  // link by link, joint to joint
         double inner, outer;
     };
     std::vector<Trunk> trunks;
-    for (int si = 0; si < static_cast<int>(rig.sweeps.size()); ++si) {
-        const Sweep& sw = rig.sweeps[si];
-        if (!sw.bends_smoothly) continue;
-        Trunk t{si, {}, {}, 0.0, 0.0};
+    for (size_t c = 0; c < chains.chains.size() && c < chain_sweep.size(); ++c) {
+        const int si = chain_sweep[c];
+        if (si < 0 || !rig.sweeps[si].bends_smoothly) continue;
+        const Chain& ch = chains.chains[c];
+        Trunk t{si, ch.links(), {}, 0.0, 0.0};
         std::vector<double> depth;
-        for (const KeyEllipse& k : sw.keys) {
-            if (k.is_joint_key()) continue;
-            if (std::find(t.links.begin(), t.links.end(), k.bone) == t.links.end()) t.links.push_back(k.bone);
-            depth.push_back(std::min(k.a, k.b));
-        }
-        if (depth.empty()) continue;
-        // Joint to joint, not head to tail: a glTF rig's tails are guesses (CesiumMan's bones
-        // all point one way whatever the body does).
-        const int end_bone = sw.keys.back().bone;
-        for (size_t i = 0; i < t.links.size(); ++i) {
-            const int b = t.links[i];
-            const bool last = i + 1 == t.links.size();
-            const dvec3 to = !last ? s.heads[t.links[i + 1]] : end_bone != b ? s.heads[end_bone] : s.tails[b];
-            t.segments.push_back({s.heads[b], to});
-        }
+        for (const KeyEllipse& k : rig.sweeps[si].keys)
+            if (!k.is_joint_key()) depth.push_back(std::min(k.a, k.b));
+        if (depth.empty() || t.links.empty()) continue;
+        const std::vector<dvec3> joints = ch.joints(s);  // joint to joint (Chain::joints)
+        for (size_t i = 0; i < t.links.size(); ++i) t.segments.push_back({joints[i], joints[i + 1]});
         std::nth_element(depth.begin(), depth.begin() + depth.size() / 2, depth.end());
         t.inner = kSpineSkinInner * depth[depth.size() / 2];
         t.outer = kSpineSkinOuter * depth[depth.size() / 2];

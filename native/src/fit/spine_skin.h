@@ -9,6 +9,7 @@
 // own skin weights, as Preserve Volume moves it, fading to the sweep further out.
 #pragma once
 
+#include "fit/chains.h"
 #include "fit/regions.h"
 #include "geometry/mesh.h"
 #include "rig/rig.h"
@@ -23,11 +24,12 @@ namespace sd::fit {
 constexpr double kSpineSkinInner = 0.45;
 constexpr double kSpineSkinOuter = 0.8;
 
-/// Moves, for every vertex on a thick chain's sweep (Sweep::bends_smoothly) near its link
-/// bones, that share of its sweep weight to those bones, split by the vertex's own skin weights
-/// on them (#V*slots; a vertex with none on them keeps its sweep weight). Widens the bone slots
-/// as needed. Returns the number of vertices changed.
-int give_spine_skin_to_bones(const FitMesh& mesh, const Rig& rig, int slots, const int32_t* bones, const float* weights,
+/// Moves, for every vertex on a thick chain's sweep (Sweep::bends_smoothly; `chain_sweep` the
+/// sweep of each chain, -1 for none) near its links, that share of its sweep weight to those
+/// bones, split by the vertex's own skin weights on them (#V*slots; a vertex with none on them
+/// keeps its sweep weight). Widens the bone slots as needed. Returns the number of vertices changed.
+int give_spine_skin_to_bones(const FitMesh& mesh, const Rig& rig, const ChainSet& chains,
+                             const std::vector<int>& chain_sweep, int slots, const int32_t* bones, const float* weights,
                              RegionWeights& regions);
 
 }  // namespace sd::fit

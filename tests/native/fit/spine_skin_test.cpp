@@ -15,12 +15,20 @@ namespace {
 
 /// A trunk: three 10 cm bones up z, a fourth bone (an arm) off the top, and a key every 2.5 cm
 /// of half-axes 15 x 10 cm (the depth, along y, 10): far thicker than its links are long.
-Rig trunk(double half_a, double half_b) {
+/// Its chain: the first three bones, sweep 0.
+struct Trunk {
+    Rig rig;
+    fit::ChainSet chains;
+    std::vector<int> chain_sweep{0};
+};
+
+Trunk trunk(double half_a, double half_b) {
     std::vector<dmat4> rest;
     std::vector<dvec3> heads{{0, 0, 0}, {0, 0, 0.1}, {0, 0, 0.2}, {0, 0, 0.3}},
         tails{{0, 0, 0.1}, {0, 0, 0.2}, {0, 0, 0.3}, {0.2, 0, 0.3}};
     for (const dvec3& h : heads) rest.push_back(glm::translate(dmat4(1.0), h));
-    Rig rig;
+    Trunk t;
+    Rig& rig = t.rig;
     rig.skeleton = Skeleton::build({-1, 0, 1, 2}, rest, heads, tails);
     std::vector<KeyEllipse> keys;
     for (double z = 0.0125; z < 0.3; z += 0.025) {
@@ -32,7 +40,11 @@ Rig trunk(double half_a, double half_b) {
         keys.push_back(e);
     }
     rig.add_sweep(keys);
-    return rig;
+    fit::Chain torso;
+    torso.kind = fit::ChainKind::Torso;
+    torso.bones = {0, 1, 2};
+    t.chains.chains.push_back(torso);
+    return t;
 }
 
 struct Skin {
@@ -69,8 +81,8 @@ float bone_weight(const fit::RegionWeights& r, int v, int bone) {
 }
 
 TEST(SpineSkin, SkinBesideTheSpineFollowsItsBonesBySkinWeights) {
-    const Rig rig = trunk(0.15, 0.10);
-    ASSERT_TRUE(rig.sweeps[0].bends_smoothly) << "the trunk must be a thick chain";
+    const Trunk t = trunk(0.15, 0.10);
+    ASSERT_TRUE(t.rig.sweeps[0].bends_smoothly) << "the trunk must be a thick chain";
     // The inner and outer reach: 0.45 and 0.8 of the median depth half-axis, 10 cm.
     Skin skin;
     skin.add({0, 0.02, 0.15}, 1, 0.7f, 2, 0.3f);  // 2 cm behind the middle bone: the bones alone
@@ -82,7 +94,9 @@ TEST(SpineSkin, SkinBesideTheSpineFollowsItsBonesBySkinWeights) {
     const int32_t triangle[3] = {0, 1, 2};  // the fitting's mesh needs one; this step reads none
     const fit::FitMesh mesh(V, skin.positions.data(), 1, triangle);
     fit::RegionWeights r = on_the_sweep(V, {1.0f, 1.0f, 1.0f, 1.0f, 0.6f});
-    EXPECT_EQ(fit::give_spine_skin_to_bones(mesh, rig, 2, skin.bones.data(), skin.weights.data(), r), 3);
+    EXPECT_EQ(fit::give_spine_skin_to_bones(mesh, t.rig, t.chains, t.chain_sweep, 2, skin.bones.data(),
+                                            skin.weights.data(), r),
+              3);
 
     EXPECT_FLOAT_EQ(r.sweep_weights[0], 0.0f);
     EXPECT_FLOAT_EQ(bone_weight(r, 0, 1), 0.7f);
@@ -106,14 +120,16 @@ TEST(SpineSkin, SkinBesideTheSpineFollowsItsBonesBySkinWeights) {
 
 TEST(SpineSkin, ALimbKeepsItsSkin) {
     // Half-axes of 1 cm on 10 cm links: an arm, not a trunk; its keys follow their bones.
-    const Rig rig = trunk(0.01, 0.01);
-    ASSERT_FALSE(rig.sweeps[0].bends_smoothly);
+    const Trunk t = trunk(0.01, 0.01);
+    ASSERT_FALSE(t.rig.sweeps[0].bends_smoothly);
     Skin skin;
     for (double z : {0.14, 0.15, 0.16}) skin.add({0, 0.005, z}, 1, 1.0f);
     const int32_t triangle[3] = {0, 1, 2};
     const fit::FitMesh mesh(3, skin.positions.data(), 1, triangle);
     fit::RegionWeights r = on_the_sweep(3, {1.0f, 1.0f, 1.0f});
-    EXPECT_EQ(fit::give_spine_skin_to_bones(mesh, rig, 2, skin.bones.data(), skin.weights.data(), r), 0);
+    EXPECT_EQ(fit::give_spine_skin_to_bones(mesh, t.rig, t.chains, t.chain_sweep, 2, skin.bones.data(),
+                                            skin.weights.data(), r),
+              0);
     for (int v = 0; v < 3; ++v) EXPECT_FLOAT_EQ(r.sweep_weights[v], 1.0f);
 }
 
