@@ -437,7 +437,8 @@ void Deformer::prepare_sweeps(const SkeletonPose& pose) {
             // where it is lost: at the joint's key and its neighbours. (Through the controller's
             // own keys, a hip's loss went to the knee: the demo's thigh swelled by 5 %.)
             for (const JointVolumeTable& t : joint_volumes_) {
-                const double add = t.sweep == static_cast<int>(si) ? strength * t.added_volume(pose) : 0.0;
+                const double add =
+                    t.sweep == static_cast<int>(si) ? strength * t.added_volume(pose, s.motions[t.key].lowering) : 0.0;
                 if (!(add > 0.0)) continue;
                 r.after = control_volume(form, t.keys(s.key_count()), r.after + add, a, b).after;
             }

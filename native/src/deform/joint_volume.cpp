@@ -58,16 +58,25 @@ VolumeControlKeys JointVolumeTable::keys(int key_count) const {
     return k;
 }
 
+dvec3 JointVolumeTable::swung_axis(const SkeletonPose& pose) const {
+    return (glm::conjugate(pose.rotation[parent]) * pose.rotation[child]) * axis;
+}
+
 void JointVolumeTable::swing(const SkeletonPose& pose, double* bend, double* direction) const {
-    const dvec3 d = (glm::conjugate(pose.rotation[parent]) * pose.rotation[child]) * axis;
+    const dvec3 d = swung_axis(pose);
     *bend = std::acos(std::clamp(glm::dot(d, axis), -1.0, 1.0));
     *direction = std::atan2(glm::dot(d, e2), glm::dot(d, e1));
 }
 
-double JointVolumeTable::added_volume(const SkeletonPose& pose) const {
+double JointVolumeTable::added_volume(const SkeletonPose& pose, const dvec3& lowering) const {
     if (added.empty()) return 0.0;
     double bend = 0.0, direction = 0.0;
     swing(pose, &bend, &direction);
+    double kept = 1.0;  // the share left where the swing lowers an arm towards the body
+    if (lowering != dvec3(0.0)) {
+        kept = 1.0 - std::clamp(glm::dot(swung_axis(pose) - axis, lowering) / kLoweredWithoutGrowth, 0.0, 1.0);
+        if (!(kept > 0.0)) return 0.0;
+    }
     // Around the axis, the trigonometric polynomial through a row's 8 samples (exact for
     // harmonics up to the third): what the mesh loses goes round a joint like a sine, from a
     // loss one way to a gain the other (MakeHuman's hip at 70°: +1.3 L to -1.2 L), and lines
@@ -94,7 +103,7 @@ double JointVolumeTable::added_volume(const SkeletonPose& pose) const {
         const double f = t - i0;
         v = (1.0 - f) * at(i0) + f * at(i0 + 1);
     }
-    return std::clamp(v, 0.0, most_added);
+    return kept * std::clamp(v, 0.0, most_added);
 }
 
 double cone_volume(const float* p, const std::vector<int32_t>& triangles, const dvec3& apex) {

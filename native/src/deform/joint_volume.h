@@ -41,14 +41,27 @@ struct JointVolumeTable {
 
     /// The keys that take the added volume: the joint's key and its neighbours (of `key_count`).
     VolumeControlKeys keys(int key_count) const;
+    /// The lower link's rest direction `axis` carried by the lower bone's turn relative to the
+    /// upper one in `pose`.
+    dvec3 swung_axis(const SkeletonPose& pose) const;
     /// The lower bone's swing relative to the upper one in `pose`: bend angle and its direction.
     void swing(const SkeletonPose& pose, double* bend, double* direction) const;
     /// The table read at the joint's swing in `pose` (linear in the bend, a trigonometric
     /// polynomial around the axis), within [0, most_added]: a gain is left alone (a fold passing
     /// through itself counts twice in a signed volume, and shrinking a limb to make up for it
-    /// would thin it).
-    double added_volume(const SkeletonPose& pose) const;
+    /// would thin it). Given `lowering` (an arm's shoulder: the body's down, KeyMotion::lowering),
+    /// nothing is added once the swing lowers the limb towards it by kLoweredWithoutGrowth or
+    /// more, fading from the whole reading at no lowering.
+    double added_volume(const SkeletonPose& pose, const dvec3& lowering = dvec3(0.0)) const;
 };
+
+/// How far a swing lowers an arm (the change of the link's unit direction along the body's down)
+/// before its shoulder's table adds nothing. What a lowered arm's mesh loses is the armpit
+/// closing, the arm pressed to the chest; grown back into the arm's keys it swelled the top of
+/// the shoulder and pressed the armpit's skin into itself (shoulder_abd_20, arm lowered 25°:
+/// MakeHuman 5 -> 1 intersecting pairs without it, its 2.9K level of detail 4 -> 0, CesiumMan's
+/// skin-to-bone ratio 1.29 -> 1.23; docs/quality.md, twenty-fourth session).
+constexpr double kLoweredWithoutGrowth = 0.1;
 
 /// Signed volume of the triangles' cones from `apex` (positions #V*3). Over a closed surface it
 /// is the enclosed volume; over a patch whose border stays put or turns about the apex, its

@@ -62,13 +62,14 @@ JointVolumeTable numbered_elbow() {
 }
 
 // The table read with the forearm bent by `bend` towards direction `direction` (about +x).
-double read_at(const JointVolumeTable& t, const test::Arm& arm, double bend, double direction = 0.0) {
+double read_at(const JointVolumeTable& t, const test::Arm& arm, double bend, double direction = 0.0,
+               const dvec3& lowering = dvec3(0.0)) {
     const dvec3 elbow(1, 0, 0), towards(0, std::cos(direction), std::sin(direction));
     const std::vector<float> pose = testing::turned_pose(
         arm.rig.skeleton, 1, testing::turn_about(elbow, glm::cross(dvec3(1, 0, 0), towards), bend));
     SkeletonPose sp;
     sp.set(arm.rig.skeleton, pose.data());
-    return t.added_volume(sp);
+    return t.added_volume(sp, lowering);
 }
 
 TEST(JointVolume, TheTableReadsNothingAtRestItsSamplesAtTheirBendsAndASineBetween) {
@@ -92,6 +93,27 @@ TEST(JointVolume, TheTableReadsNothingAtRestItsSamplesAtTheirBendsAndASineBetwee
     // And never more than the bound.
     lower.most_added = 0.01;
     EXPECT_EQ(read_at(lower, arm, kPi / 2, 0.3), 0.01);
+}
+
+TEST(JointVolume, AShouldersTableAddsNothingAsTheArmIsLoweredTowardsTheBody) {
+    // The same table as a shoulder's whose body's down is +y (direction 0): lowered towards it,
+    // nothing once the link's direction has come kLoweredWithoutGrowth of the way down, half
+    // at half that, the whole reading raised away from it or swung across it.
+    const test::Arm arm;
+    const JointVolumeTable t = numbered_elbow();
+    const dvec3 down(0, 1, 0);
+    constexpr double kTol = 1e-5;
+    EXPECT_EQ(read_at(t, arm, kPi / 4, 0.0, down), 0.0);
+    EXPECT_EQ(read_at(t, arm, 3 * kPi / 4, 0.0, down), 0.0);
+    const double half = std::asin(0.5 * kLoweredWithoutGrowth);  // lowered by half the fade
+    EXPECT_NEAR(read_at(t, arm, half, 0.0, down), 0.5 * read_at(t, arm, half, 0.0), kTol);
+    EXPECT_NEAR(read_at(t, arm, kPi / 4, kPi, down), read_at(t, arm, kPi / 4, kPi), 1e-12);         // raised
+    EXPECT_NEAR(read_at(t, arm, kPi / 2, kPi / 2, down), read_at(t, arm, kPi / 2, kPi / 2), kTol);  // across
+    EXPECT_GT(read_at(t, arm, kPi / 2, kPi / 2, down), 0.0);
+    // Continuous in the swing: no step where the fade begins or ends.
+    const double end = std::asin(kLoweredWithoutGrowth);
+    EXPECT_LT(read_at(t, arm, 0.999 * end, 0.0, down), 1e-2 * read_at(t, arm, end, 0.0));
+    EXPECT_NEAR(read_at(t, arm, 1e-4, kPi / 2 - 1e-3, down), read_at(t, arm, 1e-4, kPi / 2 - 1e-3), 1e-4);
 }
 
 TEST(JointVolume, TablesNameTheRigsSweepsAndBones) {
