@@ -71,18 +71,18 @@ dvec3 JointVolumeTable::swung_axis(const SkeletonPose& pose) const {
     return (glm::conjugate(pose.rotation[parent]) * pose.rotation[child]) * axis;
 }
 
-void JointVolumeTable::swing(const SkeletonPose& pose, double* bend, double* direction) const {
-    const dvec3 d = swung_axis(pose);
+void JointVolumeTable::swing(const dvec3& d, double* bend, double* direction) const {
     *bend = std::acos(std::clamp(glm::dot(d, axis), -1.0, 1.0));
     *direction = std::atan2(glm::dot(d, e2), glm::dot(d, e1));
 }
 
 double JointVolumeTable::added_volume(const SkeletonPose& pose, const dvec3& lowering) const {
     if (added.empty()) return 0.0;
-    double bend = 0.0, direction = 0.0;
-    swing(pose, &bend, &direction);
-    const double kept = share_kept(axis, swung_axis(pose), lowering);
+    const dvec3 swung = swung_axis(pose);
+    const double kept = share_kept(axis, swung, lowering);
     if (!(kept > 0.0)) return 0.0;
+    double bend = 0.0, direction = 0.0;
+    swing(swung, &bend, &direction);
     // Around the axis, the trigonometric polynomial through a row's 8 samples (exact for
     // harmonics up to the third): what the mesh loses goes round a joint like a sine, from a
     // loss one way to a gain the other (MakeHuman's hip at 70°: +1.3 L to -1.2 L), and lines

@@ -44,8 +44,9 @@ struct JointVolumeTable {
     /// The lower link's rest direction `axis` carried by the lower bone's turn relative to the
     /// upper one in `pose`.
     dvec3 swung_axis(const SkeletonPose& pose) const;
-    /// The lower bone's swing relative to the upper one in `pose`: bend angle and its direction.
-    void swing(const SkeletonPose& pose, double* bend, double* direction) const;
+    /// The swing that carries `axis` to `swung` (swung_axis of a pose): bend angle and its
+    /// direction about the axis.
+    void swing(const dvec3& swung, double* bend, double* direction) const;
     /// The table read at the joint's swing in `pose` (linear in the bend, a trigonometric
     /// polynomial around the axis), within [0, most_added]: a gain is left alone (a fold passing
     /// through itself counts twice in a signed volume, and shrinking a limb to make up for it
