@@ -184,6 +184,7 @@ int main(int argc, char** argv) {
     c.poses = std::move(motion.poses);
     c.fit = std::make_unique<sd::fit::FitResult>(sd::fit::fit_rig(fit_input(c.character)));
     c.deformer = std::make_unique<sd::Deformer>(c.fit->rig, bind_fitted(c.character, *c.fit));
+    c.deformer->set_skin_triangles(c.character.triangles);  // as the add-on: the trunk's fill
     const double setup = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     g_case = &c;
 

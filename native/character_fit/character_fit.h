@@ -63,6 +63,7 @@ inline Fitted fit_and_bind(io::Character c) {
     f.skeleton = skeleton_of(c);
     f.fit = fit::fit_rig(character_input(c, f.skeleton));
     f.deformer = std::make_unique<Deformer>(f.fit.rig, bind_fitted(c, f.fit));
+    f.deformer->set_skin_triangles(std::vector<int32_t>(c.triangles.begin(), c.triangles.end()));  // the trunk's fill
     f.character = std::move(c);
     return f;
 }

@@ -243,6 +243,12 @@ def core_result(obj, depsgraph=None, anatomy=False, corrections=False, joint_vol
         d.hold_joint_volumes_of(measured)
     elif joint_volumes:
         d.hold_joint_volumes(triangles(obj.data))
+    if source:  # the trunk's fill: as the source's, or on its own triangles
+        filled = native.Deformer(*persistence.load(bpy.data.objects[source])[:2])
+        filled.set_skin_triangles(triangles(bpy.data.objects[source].data))
+        d.fill_trunk_as(filled)
+    elif len(obj.data.vertices) == d.vertex_count:
+        d.set_skin_triangles(triangles(obj.data))
     if corrections:
         d.set_rig_corrections(*corrections_module.correction_arrays(s))
     d.set_volume_preservation(s.use_volume_preservation, s.volume_strength)

@@ -27,7 +27,7 @@ def test_library_loads_by_its_versioned_name_and_abi():
     ok, version = native.available()
     assert ok, version
     assert version == "0.1.0"
-    assert native.abi_version() == native.ABI_VERSION == 6
+    assert native.abi_version() == native.ABI_VERSION == 7
     assert native.library_path() == os.path.join(installed_dir(), "lib", "libsweepdeform.so.0.1.0")
     maps = open("/proc/self/maps").read()
     assert os.path.join(installed_dir(), "lib", "libsweepdeform.so.0.1.0") in maps

@@ -4,10 +4,13 @@
 // the two deformers' bit for bit the same. Then the tables through their blob, some of its
 // payload's bytes changed from the input and its checksum made right again (so that the reader
 // sees them): a blob left whole deforms as the first deformer, any other is refused or deforms
-// to finite positions.
+// to finite positions. Last the same triangles and pose for a thick tube's trunk fill: refused
+// triangles change nothing, others give finite frames, and so does a deformer filled as it.
 #include "fuzz_fixture.h"
 
+#include <cmath>
 #include <cstring>
+#include <vector>
 
 namespace {
 
@@ -19,6 +22,37 @@ uint32_t crc32(const uint8_t* p, size_t n) {
     }
     return c ^ 0xFFFFFFFFu;
 }
+
+/// The arm's bones with a sweep as thick as a trunk (half-axes 0.6 x 0.5 on links 1 long: its
+/// keys follow blends of the bones, so its skin is filled), and the same ring mesh around it.
+struct ThickTube {
+    sd_rig* rig = nullptr;
+    sd_binding* binding = nullptr;
+    explicit ThickTube(const sdfuzz::Arm& arm) {
+        float centers[21], orientations[28], half_axes[14], fractions[14];
+        int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
+        for (int k = 0; k < 7; ++k) {
+            centers[3 * k] = k / 3.0f;
+            centers[3 * k + 1] = centers[3 * k + 2] = 0.0f;
+            for (int i = 0; i < 4; ++i) orientations[4 * k + i] = 0.5f;
+            half_axes[2 * k] = 0.6f;
+            half_axes[2 * k + 1] = 0.5f;
+            fractions[2 * k] = 0.5f;
+            fractions[2 * k + 1] = k == 6 ? 1.0f : 0.5f;
+        }
+        std::vector<float> mesh;
+        for (int r = 0; r < 11; ++r)
+            for (int s = 0; s < 8; ++s)
+                mesh.insert(mesh.end(), {r / 5.0f, 0.6f * std::cos(s * 0.785f), 0.5f * std::sin(s * 0.785f)});
+        std::vector<int32_t> ids(88, 0);
+        std::vector<float> w(88, 1.0f);
+        if (sd_rig_create(3, arm.parents, arm.rest, arm.heads, arm.tails, &rig) != SD_OK ||
+            sd_rig_add_sweep(rig, 7, centers, orientations, half_axes, bones, joint_parents, fractions, nullptr) !=
+                SD_OK ||
+            sd_bind(rig, 88, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &binding) != SD_OK)
+            __builtin_trap();
+    }
+};
 
 }  // namespace
 
@@ -78,5 +112,26 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     sd_deformer_destroy(loaded);
     sd_deformer_destroy(copy);
     sd_deformer_destroy(d);
+
+    static const ThickTube tube(arm);
+    sd_deformer *filled = nullptr, *follower = nullptr, *plain = nullptr;
+    if (sd_deformer_create(tube.rig, tube.binding, &filled) != SD_OK ||
+        sd_deformer_create(tube.rig, tube.binding, &follower) != SD_OK ||
+        sd_deformer_create(tube.rig, tube.binding, &plain) != SD_OK)
+        __builtin_trap();
+    const sd_status t = sd_deformer_set_skin_triangles(filled, vertices, count, tris.data());
+    if (sd_deformer_fill_trunk_as(follower, filled) != SD_OK) __builtin_trap();
+    std::vector<float> f(out.size()), g(out.size()), p(out.size());
+    const sd_status fa = sd_deform(filled, 3, pose, V, f.data()), fb = sd_deform(follower, 3, pose, V, g.data()),
+                    fc = sd_deform(plain, 3, pose, V, p.data());
+    if (fa != fc || fb != fc) __builtin_trap();
+    if (fa == SD_OK) {
+        sdfuzz::require_finite(f.data(), f.size());
+        sdfuzz::require_finite(g.data(), g.size());
+        if (t != SD_OK && (f != p || g != p)) __builtin_trap();  // refused: nothing changed
+    }
+    sd_deformer_destroy(plain);
+    sd_deformer_destroy(follower);
+    sd_deformer_destroy(filled);
     return 0;
 }

@@ -81,6 +81,7 @@ class Entry:
         self.triangles = None
         self.joints_held = 0  # limb joints whose mesh volume is held (sd_deformer_hold_joint_volumes)
         self.joint_volume_error = ""  # why it is not, shown in the panel
+        self.trunk_fill_error = ""  # why the trunk's volume is not given to its skin, shown in the panel
         self.tables_key = None  # what its joint volume tables were measured on (_retired)
         try:
             rig, binding, names, rest_pose = persistence.load(obj)
@@ -105,6 +106,9 @@ class Entry:
             # count changed since binding is refused further on, with its own message.
             if len(obj.data.vertices) == self.deformer.vertex_count:
                 self.triangles = mesh_data.triangles(obj.data)  # kept for the anatomical effects
+                self.trunk_fill_error = _fill_trunk(obj, self.deformer, self.triangles)
+                if self.trunk_fill_error:  # the binding still deforms, without it
+                    print(f"Sweep Deform: '{obj.name}': {self.trunk_fill_error}")
                 self.joints_held, self.joint_volume_error, self.tables_key = _hold_joint_volumes(
                     obj, self.deformer, self.triangles)
                 if self.joint_volume_error:  # the binding still deforms, without it
@@ -254,6 +258,26 @@ class Entry:
         if self.deformer is None or self.frames == 0:
             return None
         return self.deformer.volumes()
+
+
+def _fill_trunk(obj, deformer, triangles):
+    """The trunk's volume given back to its skin when it bends (the core's trunk_fill.h), on the
+    object's own `triangles`; a mesh bound through another's map fills as that source does, so
+    that the two stay together. Returns why not, or ""."""
+    source_name = json.loads(obj.get(persistence.REPORT_KEY, "") or "{}").get("bound_through_map_of")
+    try:
+        if source_name:
+            source = bpy.data.objects.get(source_name)
+            src = entry(source) if source is not None and source.type == 'MESH' else None
+            if src is None or src.deformer is None:
+                return (f"the trunk's volume is not given to its skin: '{source_name}', whose map it was bound "
+                        "through, is not a bound mesh in this file")
+            deformer.fill_trunk_as(src.deformer)
+        else:
+            deformer.set_skin_triangles(triangles)
+        return ""
+    except (native.NativeError, ValueError) as e:
+        return f"the trunk's volume is not given to its skin: {e}"
 
 
 def _hold_joint_volumes(obj, deformer, triangles):

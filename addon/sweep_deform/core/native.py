@@ -27,7 +27,7 @@ import numpy as np
 #: The library file name this add-on version ships and loads (never the bare SONAME).
 LIBRARY_FILE = "libsweepdeform.so.0.1.0"
 #: The ``SD_ABI_VERSION`` this binding was written against.
-ABI_VERSION = 6
+ABI_VERSION = 7
 
 SD_OK = 0
 STATUS_NAMES = {
@@ -173,6 +173,8 @@ SIGNATURES = {
     "sd_deformer_set_volume_offsets": (Status, [DeformerP, c_int32, F32]),
     "sd_deformer_hold_joint_volumes": (Status, [DeformerP, c_int32, c_int32, I32, P_INT32]),
     "sd_deformer_hold_joint_volumes_of": (Status, [DeformerP, DeformerP, P_INT32]),
+    "sd_deformer_set_skin_triangles": (Status, [DeformerP, c_int32, c_int32, I32]),
+    "sd_deformer_fill_trunk_as": (Status, [DeformerP, DeformerP]),
     "sd_deformer_serialize_joint_volumes": (Status, [DeformerP, U8_OUT, c_int64, P_INT64]),
     "sd_deformer_load_joint_volumes": (Status, [DeformerP, U8, c_int64, P_INT32]),
     "sd_deform": (Status, [DeformerP, c_int32, F32, c_int32, F32_OUT]),
@@ -651,6 +653,19 @@ class Deformer(_Handle):
         _call("sd_deformer_hold_joint_volumes", self.ptr, self.vertex_count, tris.size // 3, tris,
               ctypes.byref(count))
         return count.value
+
+    def set_skin_triangles(self, triangles):
+        """The bound mesh's triangles ((T,3) indices into the bound vertices; empty: none): with
+        them a bent trunk fills its skin out from the spine to put its volume back."""
+        tris = np.ascontiguousarray(triangles, np.int32).ravel()
+        if tris.size % 3:
+            raise ValueError("triangles must be (T,3) vertex indices")
+        _call("sd_deformer_set_skin_triangles", self.ptr, self.vertex_count, tris.size // 3,
+              tris if tris.size else np.zeros(3, np.int32))
+
+    def fill_trunk_as(self, source):
+        """Fills the trunk as `source` does (the same rig): for a mesh bound through its map."""
+        _call("sd_deformer_fill_trunk_as", self.ptr, source.ptr)
 
     def hold_joint_volumes_of(self, source):
         """Holds the joints' volume with `source`'s measured tables (the same rig). Returns the

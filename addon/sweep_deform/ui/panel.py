@@ -97,6 +97,8 @@ class OBJECT_PT_sweep_deform(bpy.types.Panel):
             _alert_box(layout, e.warning, "Extreme pose")
         if e is not None and e.joint_volume_error:
             _alert_box(layout, e.joint_volume_error, "Volume at the joints")
+        if e is not None and e.trunk_fill_error:
+            _alert_box(layout, e.trunk_fill_error, "Volume of the trunk")
         problem = vertex_count_problem(context, obj)
         if problem:
             _alert_box(layout, problem, "Vertex count changed before Sweep Deform")

@@ -54,8 +54,8 @@ extern "C" {
  * added (2: the fitting's report is copied into the caller's buffer; joint kinds and
  * parameters renamed; 3: the output check, sd_output_check_*; 4: sd_deform_displaced, sd_mix_shape_keys;
  * 5: sd_compose_offsets, sd_deformer_serialize_joint_volumes, sd_deformer_load_joint_volumes;
- * 6: sd_deform_frame). */
-#define SD_ABI_VERSION 6
+ * 6: sd_deform_frame; 7: sd_deformer_set_skin_triangles, sd_deformer_fill_trunk_as). */
+#define SD_ABI_VERSION 7
 
 typedef enum sd_status {
     SD_OK = 0,
@@ -192,6 +192,23 @@ SD_API sd_status sd_deformer_set_volume_offsets(sd_deformer* deformer, int32_t s
 SD_API sd_status sd_deformer_hold_joint_volumes(sd_deformer* deformer, int32_t vertex_count, int32_t triangle_count,
                                                 const int32_t* triangles, int32_t* out_joint_count);
 /*
+ * The bound mesh's triangles (#T*3 indices into the binding's vertices; triangle_count 0:
+ * none). With them a bent trunk (a thick chain, the spine) puts its lost volume back by
+ * filling out the skin the pose left nearest its spine, all to one ratio of its rest distance
+ * from the spine's bones, instead of growing its sweep's sections (docs/math.md, "The trunk's
+ * fill"). Cheap: nothing is measured. On error nothing changes.
+ */
+SD_API sd_status sd_deformer_set_skin_triangles(sd_deformer* deformer, int32_t vertex_count, int32_t triangle_count,
+                                                const int32_t* triangles);
+/*
+ * Fills the trunk as `source` does (both of the same rig, SD_ERR_MISMATCH otherwise): for a mesh
+ * bound through source's displacement map, whose skin is then raised each frame to the level
+ * source's skin reaches, so that the two stay together (a copy of source's trunk skin is deformed
+ * for it: source's settings at this call). A source without skin triangles: no fill. Replaces
+ * sd_deformer_set_skin_triangles and is replaced by it. On error nothing changes.
+ */
+SD_API sd_status sd_deformer_fill_trunk_as(sd_deformer* deformer, const sd_deformer* source);
+/*
  * Holds the joints' volume as `source` does (its measured tables, see above): for a mesh bound
  * through another's displacement map, which then follows the same sweeps. Both deformers must
  * have the same rig (SD_ERR_MISMATCH otherwise). out_joint_count as above.
@@ -288,7 +305,8 @@ SD_API sd_status sd_compose_offsets(int32_t vertex_count, const float* positions
                                     const float* displacements, float* out);
 
 /*
- * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it.
+ * Sweep volumes of the last sd_deform: rest V0, before volume control, and after it (a trunk
+ * whose skin is filled, sd_deformer_set_skin_triangles: with the volume its skin is given).
  * Each array #S (any may be NULL), units^3.
  */
 SD_API sd_status sd_deformer_get_volumes(const sd_deformer* deformer, int32_t sweep_count, double* rest, double* before,

@@ -69,6 +69,29 @@ sd_status sd_deformer_hold_joint_volumes(sd_deformer* d, int32_t vertex_count, i
     });
 }
 
+sd_status sd_deformer_set_skin_triangles(sd_deformer* d, int32_t vertex_count, int32_t triangle_count,
+                                         const int32_t* triangles) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && (triangles || triangle_count == 0), "deformer or triangles is NULL");
+        SD_REQUIRE(triangle_count >= 0, "triangle_count is negative");
+        if (vertex_count != d->deformer->vertex_count())
+            return fail(SD_ERR_MISMATCH, "vertex_count differs from the binding's");
+        d->deformer->set_skin_triangles(
+            std::vector<int32_t>(triangles, triangles + 3 * static_cast<size_t>(triangle_count)));
+        return SD_OK;
+    });
+}
+
+sd_status sd_deformer_fill_trunk_as(sd_deformer* d, const sd_deformer* source) {
+    return guarded(__func__, [&] {
+        SD_REQUIRE(d && source, "deformer or source is NULL");
+        if (sd::rig_fingerprint(d->deformer->rig()) != sd::rig_fingerprint(source->deformer->rig()))
+            return fail(SD_ERR_MISMATCH, "the source deformer has another rig");
+        d->deformer->fill_trunk_as(*source->deformer);
+        return SD_OK;
+    });
+}
+
 sd_status sd_deformer_hold_joint_volumes_of(sd_deformer* d, const sd_deformer* source, int32_t* out_joint_count) {
     return guarded(__func__, [&] {
         SD_REQUIRE(d && source, "deformer or source is NULL");

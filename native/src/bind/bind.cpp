@@ -249,6 +249,24 @@ void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& b)
     b.bone_offsets = std::move(bone_offsets);
 }
 
+Binding binding_of_vertices(const Binding& binding, const std::vector<int32_t>& vertices) {
+    Binding b;
+    b.rig_fingerprint = binding.rig_fingerprint;
+    b.sweep_offsets.push_back(0);
+    b.bone_offsets.push_back(0);
+    for (int32_t v : vertices) {
+        b.rest_positions.insert(b.rest_positions.end(), binding.rest_positions.begin() + 3 * static_cast<size_t>(v),
+                                binding.rest_positions.begin() + 3 * static_cast<size_t>(v) + 3);
+        b.sweep_influences.insert(b.sweep_influences.end(), binding.sweep_influences.begin() + binding.sweep_offsets[v],
+                                  binding.sweep_influences.begin() + binding.sweep_offsets[v + 1]);
+        b.bone_influences.insert(b.bone_influences.end(), binding.bone_influences.begin() + binding.bone_offsets[v],
+                                 binding.bone_influences.begin() + binding.bone_offsets[v + 1]);
+        b.sweep_offsets.push_back(static_cast<uint32_t>(b.sweep_influences.size()));
+        b.bone_offsets.push_back(static_cast<uint32_t>(b.bone_influences.size()));
+    }
+    return b;
+}
+
 void Binding::check_structure() const {
     const size_t V = rest_positions.size() / 3;
     if (rest_positions.size() % 3 != 0 || V < 1) throw CorruptData("binding has no vertices");

@@ -80,4 +80,8 @@ constexpr double kHandOverReach = 4.0;
 /// key's bone across the end plane (see bind.cpp); bind_vertices calls it last.
 void hand_over_at_sweep_ends(const Rig& rig, const float* positions, Binding& binding);
 
+/// The rows of `vertices` (ascending, distinct indices of `binding`'s) as a binding of their own:
+/// its vertex i is vertices[i].
+Binding binding_of_vertices(const Binding& binding, const std::vector<int32_t>& vertices);
+
 }  // namespace sd

@@ -8,9 +8,11 @@
 #include "deform/linear_blend_skinning.h"
 #include "rig/rig.h"
 #include "deform/sweep_kernel.h"
+#include "deform/trunk_fill.h"
 
 #include <array>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <vector>
 
@@ -67,6 +69,16 @@ public:
     /// @throws InvalidInput
     void set_joint_volumes(std::vector<JointVolumeTable> tables);
     const std::vector<JointVolumeTable>& joint_volumes() const { return joint_volumes_; }
+    /// The bound mesh's triangles (#T*3 vertex indices; empty: none): with them a bent trunk's
+    /// volume is put back by filling its skin out from the spine (trunk_fill.h) instead of
+    /// growing its sweep's sections. @throws InvalidInput
+    void set_skin_triangles(const std::vector<int32_t>& triangles);
+    /// Fills the trunk as `source` does (same rig): a mesh bound through source's displacement
+    /// map raises its skin to the level source's skin reaches each frame (a copy of source's
+    /// trunk skin is deformed for it), so that the two stay together. A source that fills no
+    /// trunk: none. @throws InvalidInput if the rigs differ
+    void fill_trunk_as(const Deformer& source);
+    bool fills_trunk() const { return !trunk_fill_.empty(); }
     /// Replaces the key-ellipse corrections (Sect. 4.2) of the deformer's rig; the binding
     /// stays valid (it was made against the uncorrected rest sweeps). @throws InvalidInput
     void set_corrections(const std::vector<CorrectionRecord>& records) {
@@ -111,6 +123,7 @@ public:
     // Figures of the last frame, per sweep.
     std::vector<double> volume_before, volume_after;
     std::vector<int> volume_iterations;
+    std::vector<double> fill_levels;  ///< per filled trunk, the level its skin was raised to
 
 private:
     void prepare_sweeps(const SkeletonPose& pose);
@@ -124,6 +137,10 @@ private:
     double volume_strength_ = 1.0;
     std::vector<double> volume_offsets_;
     std::vector<JointVolumeTable> joint_volumes_;
+    TrunkFill trunk_fill_;
+    std::unique_ptr<Deformer> level_source_;  // fill_trunk_as: the source's trunk skin, whose fill sets the level
+    std::vector<float> level_scratch_;        // its positions
+    std::vector<double> trunk_need_;          // per sweep, of the last frame: the volume its fill puts back
 
     std::vector<std::vector<dquat>> rest_key_rotations_;  // per sweep, uncorrected rest keys
     std::vector<std::vector<dquat>> key_rotations_;       // per sweep, of the last frame

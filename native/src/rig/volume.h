@@ -55,6 +55,9 @@ struct VolumeControlResult {
     int iterations = 0;
 };
 
+/// The volume controller's tolerance: a sweep within this share of its target is left alone.
+constexpr double kVolumeTolerance = 2e-4;
+
 /// The controller of Sect. 4.4: starting from the rest half-axes, repeat the smallest step
 /// of the keys' scales (a_k / a0_k, b_k / b0_k) that reaches V_target to first order,
 ///   Δa_k = a0_k² ∂V/∂a_k (V_target − V) / Σ (a0_l² (∂V/∂a_l)² + b0_l² (∂V/∂b_l)²),
@@ -63,7 +66,7 @@ struct VolumeControlResult {
 /// Half-axes stay within 10 % .. 10x of their rest values.
 /// @param a, b  in: rest key half-axes; out: controlled ones (#K each)
 VolumeControlResult control_volume(const VolumeForm& form, const VolumeControlKeys& keys, double target,
-                                   std::vector<double>& a, std::vector<double>& b, double tolerance = 2e-4,
+                                   std::vector<double>& a, std::vector<double>& b, double tolerance = kVolumeTolerance,
                                    int max_iterations = 5);
 
 }  // namespace sd

@@ -666,9 +666,11 @@ int run(const Options& o) {
           "sd_deformer_set_volume_preservation");
     // The mesh's volume at the limb joints, as the extension holds it: measured on the
     // character's own triangles, also for points bound through its map (they follow its sweeps).
+    // And the trunk's volume given back to its skin (the same fill for points bound through the map).
     if (deformed_binding == h.binding) {
         check(sd_deformer_hold_joint_volumes(h.deformer, V, T, c.triangles.data(), nullptr),
               "sd_deformer_hold_joint_volumes");
+        check(sd_deformer_set_skin_triangles(h.deformer, V, T, c.triangles.data()), "sd_deformer_set_skin_triangles");
     } else {
         sd_deformer* measured = nullptr;
         check(sd_deformer_create(h.rig, h.binding, &measured), "sd_deformer_create");
@@ -679,6 +681,8 @@ int run(const Options& o) {
         check(sd_deformer_hold_joint_volumes(measured, V, T, c.triangles.data(), nullptr),
               "sd_deformer_hold_joint_volumes");
         check(sd_deformer_hold_joint_volumes_of(h.deformer, measured, nullptr), "sd_deformer_hold_joint_volumes_of");
+        check(sd_deformer_set_skin_triangles(measured, V, T, c.triangles.data()), "sd_deformer_set_skin_triangles");
+        check(sd_deformer_fill_trunk_as(h.deformer, measured), "sd_deformer_fill_trunk_as");
     }
 
     // ---- frames -------------------------------------------------------------------------

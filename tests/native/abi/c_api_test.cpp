@@ -328,6 +328,58 @@ TEST(CApi, HoldingTheJointsVolumeRefusesBadTrianglesAndChangesNothing) {
     sd_binding_destroy(b);
 }
 
+TEST(CApi, TheSkinsTrianglesAreCheckedAndBadOnesChangeNothing) {
+    // The arm's sweep is no trunk: its skin's triangles fill nothing, and a frame deforms as
+    // before, bit for bit (the fill itself: trunk_fill_test.cpp).
+    const AbiArm arm;
+    sd_binding* b = nullptr;
+    ASSERT_EQ(arm.bind(&b), SD_OK) << sd_last_error();
+    sd_deformer* d = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &d), SD_OK) << sd_last_error();
+    const int V = arm.vertex_count();
+    std::vector<float> bent = arm.rest, before(3 * V), after(3 * V);
+    bent[12 + 16] = 1.1f;  // move the forearm
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, before.data()), SD_OK);
+    const int32_t good[6] = {0, 1, 16, 1, 17, 16}, out_of_range[3] = {0, 1, V}, negative[3] = {0, -1, 2};
+    expect_error(sd_deformer_set_skin_triangles(nullptr, V, 2, good), SD_ERR_INVALID_ARGUMENT, "NULL deformer");
+    expect_error(sd_deformer_set_skin_triangles(d, V, 2, nullptr), SD_ERR_INVALID_ARGUMENT, "NULL triangles");
+    expect_error(sd_deformer_set_skin_triangles(d, V + 1, 2, good), SD_ERR_MISMATCH, "vertex count");
+    expect_error(sd_deformer_set_skin_triangles(d, V, -2, good), SD_ERR_INVALID_ARGUMENT, "negative count");
+    expect_error(sd_deformer_set_skin_triangles(d, V, 1, out_of_range), SD_ERR_INVALID_ARGUMENT, "corner out of range");
+    expect_error(sd_deformer_set_skin_triangles(d, V, 1, negative), SD_ERR_INVALID_ARGUMENT, "negative corner");
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, after.data()), SD_OK);
+    EXPECT_EQ(after, before);
+    ASSERT_EQ(sd_deformer_set_skin_triangles(d, V, 2, good), SD_OK) << sd_last_error();
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, after.data()), SD_OK);
+    EXPECT_EQ(after, before);
+    ASSERT_EQ(sd_deformer_set_skin_triangles(d, V, 0, nullptr), SD_OK) << sd_last_error();
+    // Filled as another deformer: of the same rig only.
+    sd_deformer* same = nullptr;
+    ASSERT_EQ(sd_deformer_create(arm.rig, b, &same), SD_OK);
+    EXPECT_EQ(sd_deformer_fill_trunk_as(d, same), SD_OK) << sd_last_error();
+    expect_error(sd_deformer_fill_trunk_as(nullptr, same), SD_ERR_INVALID_ARGUMENT, "NULL deformer");
+    expect_error(sd_deformer_fill_trunk_as(d, nullptr), SD_ERR_INVALID_ARGUMENT, "NULL source");
+    AbiArm other;
+    other.half_axes[0] = 0.12f;
+    sd_rig_destroy(other.rig);
+    ASSERT_EQ(
+        sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &other.rig),
+        SD_OK);
+    ASSERT_EQ(other.add_sweep(), SD_OK) << sd_last_error();
+    sd_binding* ob = nullptr;
+    ASSERT_EQ(other.bind(&ob), SD_OK) << sd_last_error();
+    sd_deformer* od = nullptr;
+    ASSERT_EQ(sd_deformer_create(other.rig, ob, &od), SD_OK) << sd_last_error();
+    expect_error(sd_deformer_fill_trunk_as(d, od), SD_ERR_MISMATCH, "another rig");
+    ASSERT_EQ(sd_deform(d, 3, bent.data(), V, after.data()), SD_OK);
+    EXPECT_EQ(after, before);
+    sd_deformer_destroy(od);
+    sd_binding_destroy(ob);
+    sd_deformer_destroy(same);
+    sd_deformer_destroy(d);
+    sd_binding_destroy(b);
+}
+
 // Blender's relative keys: reference + Σ value (key − its relative key), as displacements from
 // the rest, for the vertices they move.
 TEST(CApi, ShapeKeysMixAsBlenderMixesThem) {

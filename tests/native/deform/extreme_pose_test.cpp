@@ -243,6 +243,9 @@ void fit_and_bind(const std::string& file, bool weld, Bound& out) {
     sd_deformer* deformer_raw = nullptr;
     SD_ASSERT_OK(sd_deformer_create(out.rig.get(), binding.get(), &deformer_raw));
     out.deformer.reset(deformer_raw);
+    // The trunk's fill, as the add-on sets it (sd_deformer_set_skin_triangles).
+    SD_ASSERT_OK(sd_deformer_set_skin_triangles(out.deformer.get(), out.V, static_cast<int32_t>(c.triangles.size() / 3),
+                                                c.triangles.data()));
     prepare_measure(out);
 }
 
@@ -478,6 +481,9 @@ void synthetic_chain(Bound& out, int bones, float length, float a, float b) {
     sd_deformer* deformer_raw = nullptr;
     SD_ASSERT_OK(sd_deformer_create(out.rig.get(), binding.get(), &deformer_raw));
     out.deformer.reset(deformer_raw);
+    // The trunk's fill, as the add-on sets it (sd_deformer_set_skin_triangles).
+    SD_ASSERT_OK(sd_deformer_set_skin_triangles(out.deformer.get(), V, static_cast<int32_t>(c.triangles.size() / 3),
+                                                c.triangles.data()));
     prepare_measure(out);
 }
 

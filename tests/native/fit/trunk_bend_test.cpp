@@ -6,7 +6,8 @@
 // degrees at 60 degrees (linear blend skinning 40) and by 105 at 45 degrees over the upper spine
 // alone (43), and with the inside share faded the volume still came back as a belt across the
 // belly (its skin 1.44x its rest distance from the spine; 1.12 for linear blend skinning) until
-// it was spread along the trunk. Nor may the trunk lose its volume.
+// it was spread along the trunk. Nor may the trunk lose its volume. Since the twenty-fifth
+// session that volume is given to the skin (deform/trunk_fill.h), not grown into the sections.
 #include "character_fit.h"
 #include "dihedral.h"
 #include "turned_pose.h"
@@ -132,11 +133,17 @@ TEST_P(TrunkBend, TheBellyNeitherFoldsNorSwells) {
     EXPECT_LT(sweep, 90.0) << "the trunk's skin folds";
     // A belt of restored volume across the belly is no fold but pushes the skin out from the
     // spine: 1.44x its rest distance at 60 degrees when the hold was kept there. The
-    // instrument's 45 degree bend, with the hold in full, reaches 1.19.
-    EXPECT_LT(rmax, 1.25) << "the trunk's skin bulges away from the spine";
+    // instrument's 45 degree bend, with the hold in full, reached 1.19; with the sections grown
+    // by the restoration 1.11-1.20 (60 degrees); with the skin filled instead (trunk_fill.h,
+    // the twenty-fifth session) 1.11-1.14.
+    EXPECT_LT(rmax, 1.18) << "the trunk's skin bulges away from the spine";
     // Fading the whole restoration with the inside share (as the belt once made us do) lost
-    // the trunk's volume as linear blend skinning does: -10.9 % at 60 degrees (-12.3 %).
-    EXPECT_LT(std::abs(kept), 0.03) << "the trunk's volume";
+    // the trunk's volume as linear blend skinning does: -10.9 % at 60 degrees (-12.3 %). Filled,
+    // the trunk gains: +1.1 % at 45 degrees, +3.7 % at 60 (grown by its sections +0.6 and
+    // +2.4 %: less of the growth reached the skin), the volume the sweep's restoration asks
+    // for (deform.cpp) being more than this region lost.
+    EXPECT_GT(kept, -0.03) << "the trunk loses its volume";
+    EXPECT_LT(kept, 0.045) << "the trunk swells";
 }
 
 INSTANTIATE_TEST_SUITE_P(
