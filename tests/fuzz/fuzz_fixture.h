@@ -32,29 +32,31 @@ private:
     size_t n_;
 };
 
-/// Three bones along +x and one sweep of seven keys (see tests/support/test_arm.h).
+/// Three bones along +x and one sweep of seven keys (see tests/support/test_arm.h), half-axes
+/// a x b, centred `off` off the bones (a thick one, 0.6 x 0.5 on links 1 long, is a trunk).
 struct Arm {
     int32_t parents[3] = {-1, 0, 1};
     float rest[48] = {};
     float heads[9] = {0, 0, 0, 1, 0, 0, 2, 0, 0}, tails[9] = {1, 0, 0, 2, 0, 0, 2.3f, 0, 0};
     sd_rig* rig = nullptr;
+    float a = 0.1f, b = 0.07f;
 
-    Arm() {
-        for (int b = 0; b < 3; ++b) {
-            for (int i = 0; i < 4; ++i) rest[16 * b + 5 * i] = 1.0f;
-            rest[16 * b + 12] = heads[3 * b];
+    explicit Arm(float half_a = 0.1f, float half_b = 0.07f, float off = 0.01f) : a(half_a), b(half_b) {
+        for (int bone = 0; bone < 3; ++bone) {
+            for (int i = 0; i < 4; ++i) rest[16 * bone + 5 * i] = 1.0f;
+            rest[16 * bone + 12] = heads[3 * bone];
         }
         float centers[21], orientations[28], half_axes[14], fractions[14];
         int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
         for (int k = 0; k < 7; ++k) {
-            // A centimetre off the bones, as a limb's sections are: a twist then turns each key's
-            // offset about its bone between keys (twisted_trajectory.h), not only its frame.
+            // Off the bones (by default a centimetre, as a limb's sections are: a twist then turns
+            // each key's offset about its bone between keys, twisted_trajectory.h, not only its frame).
             centers[3 * k] = k / 3.0f;
-            centers[3 * k + 1] = 0.01f;
+            centers[3 * k + 1] = off;
             centers[3 * k + 2] = 0.0f;
             for (int i = 0; i < 4; ++i) orientations[4 * k + i] = 0.5f;
-            half_axes[2 * k] = 0.1f;
-            half_axes[2 * k + 1] = 0.07f;
+            half_axes[2 * k] = a;
+            half_axes[2 * k + 1] = b;
             fractions[2 * k] = 0.5f;
             fractions[2 * k + 1] = k == 6 ? 1.0f : 0.5f;
         }
@@ -94,17 +96,19 @@ struct Arm {
         return t;
     }
 
-    /// A ring mesh around the sweep, bound to it (for targets that need a binding).
+    /// A ring mesh around the sweep, 11 rings of 8 points with its half-axes (the triangles:
+    /// ring_triangles()), bound to it (for targets that need a binding).
     sd_binding* bind() const {
         std::vector<float> mesh;
-        for (int r = 0; r < 11; ++r)
+        for (int k = 0; k < 11; ++k)
             for (int s = 0; s < 8; ++s)
-                mesh.insert(mesh.end(), {r / 5.0f, 0.1f * std::cos(s * 0.785f), 0.07f * std::sin(s * 0.785f)});
+                mesh.insert(mesh.end(), {k / 5.0f, a * std::cos(s * 0.785f), b * std::sin(s * 0.785f)});
         std::vector<int32_t> ids(88, 0);
         std::vector<float> w(88, 1.0f);
-        sd_binding* b = nullptr;
-        if (sd_bind(rig, 88, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &b) != SD_OK) __builtin_trap();
-        return b;
+        sd_binding* out = nullptr;
+        if (sd_bind(rig, 88, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &out) != SD_OK)
+            __builtin_trap();
+        return out;
     }
 };
 

@@ -8,7 +8,6 @@
 // triangles change nothing, others give finite frames, and so does a deformer filled as it.
 #include "fuzz_fixture.h"
 
-#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -22,37 +21,6 @@ uint32_t crc32(const uint8_t* p, size_t n) {
     }
     return c ^ 0xFFFFFFFFu;
 }
-
-/// The arm's bones with a sweep as thick as a trunk (half-axes 0.6 x 0.5 on links 1 long: its
-/// keys follow blends of the bones, so its skin is filled), and the same ring mesh around it.
-struct ThickTube {
-    sd_rig* rig = nullptr;
-    sd_binding* binding = nullptr;
-    explicit ThickTube(const sdfuzz::Arm& arm) {
-        float centers[21], orientations[28], half_axes[14], fractions[14];
-        int32_t bones[7] = {0, 0, 0, 1, 1, 1, 2}, joint_parents[7] = {-1, -1, -1, 0, -1, -1, 1};
-        for (int k = 0; k < 7; ++k) {
-            centers[3 * k] = k / 3.0f;
-            centers[3 * k + 1] = centers[3 * k + 2] = 0.0f;
-            for (int i = 0; i < 4; ++i) orientations[4 * k + i] = 0.5f;
-            half_axes[2 * k] = 0.6f;
-            half_axes[2 * k + 1] = 0.5f;
-            fractions[2 * k] = 0.5f;
-            fractions[2 * k + 1] = k == 6 ? 1.0f : 0.5f;
-        }
-        std::vector<float> mesh;
-        for (int r = 0; r < 11; ++r)
-            for (int s = 0; s < 8; ++s)
-                mesh.insert(mesh.end(), {r / 5.0f, 0.6f * std::cos(s * 0.785f), 0.5f * std::sin(s * 0.785f)});
-        std::vector<int32_t> ids(88, 0);
-        std::vector<float> w(88, 1.0f);
-        if (sd_rig_create(3, arm.parents, arm.rest, arm.heads, arm.tails, &rig) != SD_OK ||
-            sd_rig_add_sweep(rig, 7, centers, orientations, half_axes, bones, joint_parents, fractions, nullptr) !=
-                SD_OK ||
-            sd_bind(rig, 88, mesh.data(), 1, ids.data(), w.data(), 0, nullptr, nullptr, &binding) != SD_OK)
-            __builtin_trap();
-    }
-};
 
 }  // namespace
 
@@ -113,11 +81,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     sd_deformer_destroy(copy);
     sd_deformer_destroy(d);
 
-    static const ThickTube tube(arm);
+    // The arm's bones with a sweep as thick as a trunk: its keys follow blends of the bones, so
+    // its skin is filled.
+    static const sdfuzz::Arm tube(0.6f, 0.5f, 0.0f);
+    static sd_binding* tube_binding = tube.bind();
     sd_deformer *filled = nullptr, *follower = nullptr, *plain = nullptr;
-    if (sd_deformer_create(tube.rig, tube.binding, &filled) != SD_OK ||
-        sd_deformer_create(tube.rig, tube.binding, &follower) != SD_OK ||
-        sd_deformer_create(tube.rig, tube.binding, &plain) != SD_OK)
+    if (sd_deformer_create(tube.rig, tube_binding, &filled) != SD_OK ||
+        sd_deformer_create(tube.rig, tube_binding, &follower) != SD_OK ||
+        sd_deformer_create(tube.rig, tube_binding, &plain) != SD_OK)
         __builtin_trap();
     const sd_status t = sd_deformer_set_skin_triangles(filled, vertices, count, tris.data());
     if (sd_deformer_fill_trunk_as(follower, filled) != SD_OK) __builtin_trap();

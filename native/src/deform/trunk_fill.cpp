@@ -27,9 +27,8 @@ constexpr double kDirectionSoftness = 0.1;
 /// A weight below exp(-this) is left out of the direction (below 1e-7 of the nearest's, under
 /// a float's rounding of the raise).
 constexpr double kNegligibleExponent = 16.0;
-/// Segments a spine may have for the one-pass path (a longer one takes the two-pass path).
-constexpr size_t kMaxSegments = 32;
-/// Vertices a task takes a block of, and the segments a spine may have for the block path.
+/// Vertices a task takes a block of, and the segments a spine may have for the block path (a
+/// longer one is taken vertex by vertex).
 constexpr size_t kFillBlock = 256, kBlockSegments = 8;
 
 /// The spine's segments in one pose, as away_from_spine reads them.
@@ -51,28 +50,18 @@ struct Spine {
     }
 };
 
-/// p's distance from the spine and the direction away from it (soft, above).
-std::pair<double, dvec3> away_from_spine(const dvec3& p, const Spine& spine) {
-    const size_t S = spine.from.size();
-    std::array<dvec3, kMaxSegments> e;
-    std::array<double, kMaxSegments> d2;
-    const bool one_pass = S <= kMaxSegments;
-    double least = HUGE_VAL;
-    for (size_t i = 0; i < S; ++i) {
-        const dvec3 o = spine.offset(p, i);
-        const double x = glm::dot(o, o);
-        if (one_pass) e[i] = o, d2[i] = x;
-        least = std::min(least, x);
-    }
-    const double d = std::sqrt(least);
-    if (!(d > 0.0)) return {0.0, dvec3(0.0)};
+/// The direction away from the spine of a point at distance d from it (soft, above), from its
+/// offsets from the S segments: offset(k) the point less its nearest point of segment k, d2(k)
+/// that offset's square length, `nearest` the segment at distance d.
+template <class Offset, class Square>
+dvec3 soft_away(size_t S, size_t nearest, double d, const Offset& offset, const Square& d2) {
     const double far = d * (1.0 + kNegligibleExponent * kDirectionSoftness);
     dvec3 away(0.0);
-    for (size_t i = 0; i < S; ++i) {
-        const dvec3 o = one_pass ? e[i] : spine.offset(p, i);
-        const double x = one_pass ? d2[i] : glm::dot(o, o);
+    for (size_t k = 0; k < S; ++k) {
+        const double x = d2(k);
         if (x > far * far) continue;  // a weight below 1e-7
-        if (x == least) {             // the nearest: weight 1
+        const dvec3 o = offset(k);
+        if (k == nearest) {  // weight 1
             away += o / d;
             continue;
         }
@@ -80,7 +69,28 @@ std::pair<double, dvec3> away_from_spine(const dvec3& p, const Spine& spine) {
         away += std::exp(-(di - d) / (kDirectionSoftness * d)) * (o / di);
     }
     const double len = glm::length(away);
-    return {d, len > 0.0 ? away / len : dvec3(0.0)};
+    return len > 0.0 ? away / len : dvec3(0.0);
+}
+
+/// p's distance from the spine and the direction away from it (vertex by vertex: at rest, and
+/// for a spine longer than the blocks take).
+std::pair<double, dvec3> away_from_spine(const dvec3& p, const Spine& spine) {
+    const size_t S = spine.from.size();
+    double least = HUGE_VAL;
+    size_t nearest = 0;
+    for (size_t k = 0; k < S; ++k) {
+        const dvec3 o = spine.offset(p, k);
+        const double x = glm::dot(o, o);
+        if (x < least) least = x, nearest = k;
+    }
+    const double d = std::sqrt(least);
+    if (!(d > 0.0)) return {0.0, dvec3(0.0)};
+    const auto offset = [&](size_t k) { return spine.offset(p, k); };
+    const auto d2 = [&](size_t k) {
+        const dvec3 o = spine.offset(p, k);
+        return glm::dot(o, o);
+    };
+    return {d, soft_away(S, nearest, d, offset, d2)};
 }
 
 dvec3 point(const float* p, int32_t v) {
@@ -305,27 +315,10 @@ std::vector<FillVertex> TrunkFill::posed_skin(const Chain& c, const SkeletonPose
                 for (size_t k = 1; k < S; ++k)
                     if (d2[k][i] < least) least = d2[k][i], nearest = k;
                 const double d = std::sqrt(static_cast<double>(least));
-                FillVertex& v = skin[b0 + i];
-                v.posed = d;
-                if (!(d > 0.0)) {
-                    away[b0 + i] = dvec3(0.0);
-                    continue;
-                }
-                const double far = d * (1.0 + kNegligibleExponent * kDirectionSoftness);
-                dvec3 e(0.0);
-                for (size_t k = 0; k < S; ++k) {
-                    const double x = d2[k][i];
-                    if (x > far * far) continue;  // a weight below 1e-7
-                    const dvec3 o(ox[k][i], oy[k][i], oz[k][i]);
-                    if (k == nearest) {
-                        e += o / d;
-                        continue;
-                    }
-                    const double di = std::sqrt(x);
-                    e += std::exp(-(di - d) / (kDirectionSoftness * d)) * (o / di);
-                }
-                const double len = glm::length(e);
-                away[b0 + i] = len > 0.0 ? e / len : dvec3(0.0);
+                skin[b0 + i].posed = d;
+                const auto offset = [&](size_t k) { return dvec3(ox[k][i], oy[k][i], oz[k][i]); };
+                const auto square = [&](size_t k) { return static_cast<double>(d2[k][i]); };
+                away[b0 + i] = d > 0.0 ? soft_away(S, nearest, d, offset, square) : dvec3(0.0);
             }
         }
     });

@@ -15,7 +15,8 @@ namespace {
 
 const float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-/// The synthetic arm of test_arm.h, built through the ABI: 3 bones along +x, 7 keys.
+/// The synthetic arm of test_arm.h, built through the ABI: 3 bones along +x, 7 keys (the first
+/// key's major half-axis `first_a`: another value makes another rig).
 struct AbiArm {
     std::vector<int32_t> parents = {-1, 0, 1};
     std::vector<float> rest, heads = {0, 0, 0, 1, 0, 0, 2, 0, 0}, tails = {1, 0, 0, 2, 0, 0, 2.3f, 0, 0};
@@ -24,7 +25,7 @@ struct AbiArm {
     std::vector<float> mesh;
     sd_rig* rig = nullptr;
 
-    AbiArm() {
+    explicit AbiArm(float first_a = 0.1f) {
         for (int b = 0; b < 3; ++b) {
             float m[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, heads[3 * b], 0, 0, 1};
             rest.insert(rest.end(), m, m + 16);
@@ -41,6 +42,7 @@ struct AbiArm {
                 const double th = 2 * M_PI * s / 16;
                 mesh.insert(mesh.end(), {r / 10.0f, float(0.1 * std::cos(th)), float(0.07 * std::sin(th))});
             }
+        half_axes[0] = first_a;
         EXPECT_EQ(sd_rig_create(3, parents.data(), rest.data(), heads.data(), tails.data(), &rig), SD_OK);
         EXPECT_EQ(add_sweep(), SD_OK) << sd_last_error();
     }
@@ -287,13 +289,7 @@ TEST(CApi, HoldingTheJointsVolumeRefusesBadTrianglesAndChangesNothing) {
     ASSERT_EQ(sd_deform(d, 3, bent.data(), V, after.data()), SD_OK);
     EXPECT_EQ(after, before);
     // Another deformer's tables: of the same rig only.
-    AbiArm other;
-    other.half_axes[0] = 0.12f;
-    sd_rig_destroy(other.rig);
-    ASSERT_EQ(
-        sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &other.rig),
-        SD_OK);
-    ASSERT_EQ(other.add_sweep(), SD_OK) << sd_last_error();
+    const AbiArm other(0.12f);
     sd_binding* ob = nullptr;
     ASSERT_EQ(other.bind(&ob), SD_OK) << sd_last_error();
     sd_deformer* od = nullptr;
@@ -359,13 +355,7 @@ TEST(CApi, TheSkinsTrianglesAreCheckedAndBadOnesChangeNothing) {
     EXPECT_EQ(sd_deformer_fill_trunk_as(d, same), SD_OK) << sd_last_error();
     expect_error(sd_deformer_fill_trunk_as(nullptr, same), SD_ERR_INVALID_ARGUMENT, "NULL deformer");
     expect_error(sd_deformer_fill_trunk_as(d, nullptr), SD_ERR_INVALID_ARGUMENT, "NULL source");
-    AbiArm other;
-    other.half_axes[0] = 0.12f;
-    sd_rig_destroy(other.rig);
-    ASSERT_EQ(
-        sd_rig_create(3, other.parents.data(), other.rest.data(), other.heads.data(), other.tails.data(), &other.rig),
-        SD_OK);
-    ASSERT_EQ(other.add_sweep(), SD_OK) << sd_last_error();
+    const AbiArm other(0.12f);
     sd_binding* ob = nullptr;
     ASSERT_EQ(other.bind(&ob), SD_OK) << sd_last_error();
     sd_deformer* od = nullptr;
