@@ -31,6 +31,8 @@ constexpr double kNegligibleExponent = 16.0;
 /// Vertices a task takes a block of, and the segments a spine may have for the block path (a
 /// longer one is taken vertex by vertex).
 constexpr size_t kFillBlock = 256, kBlockSegments = 8;
+/// A posed distance from the spine below this (in the mesh's units) gives no direction in float.
+constexpr float kOnTheSpine = 1e-30f;
 
 /// The spine's segments in one pose, as away_from_spine reads them.
 struct Spine {
@@ -318,14 +320,16 @@ std::vector<FillVertex> TrunkFill::posed_skin(const Chain& c, const SkeletonPose
             // Each vertex's distance (its nearest segment's), then the soft mean of the ways away
             // from the segments in float over the block: Eigen's exp takes a packet at a time
             // (vertex by vertex in double, with libm's exp, this was a sixth of a frame).
-            alignas(32) float dist[kFillBlock], soft[kFillBlock], far2[kFillBlock], wx[kFillBlock],
-                wy[kFillBlock], wz[kFillBlock], e[kFillBlock], inv_dk[kFillBlock];
+            alignas(32) float dist[kFillBlock], soft[kFillBlock], far2[kFillBlock], wx[kFillBlock], wy[kFillBlock],
+                wz[kFillBlock], e[kFillBlock], inv_dk[kFillBlock];
             std::copy(d2[0], d2[0] + m, dist);
             for (size_t k = 1; k < S; ++k)
                 for (size_t i = 0; i < m; ++i) dist[i] = std::min(dist[i], d2[k][i]);
             for (size_t i = 0; i < m; ++i) {
                 dist[i] = std::sqrt(dist[i]);
-                soft[i] = dist[i] > 0.0f ? -1.0f / (static_cast<float>(kDirectionSoftness) * dist[i]) : 0.0f;
+                // (A distance so small that its inverse overflows, on the spine as far as a float
+                // can tell, has no direction: 0 x inf would make the nearest segment's weight NaN.)
+                soft[i] = dist[i] > kOnTheSpine ? -1.0f / (static_cast<float>(kDirectionSoftness) * dist[i]) : 0.0f;
                 const float far = dist[i] * static_cast<float>(1.0 + kNegligibleExponent * kDirectionSoftness);
                 far2[i] = far * far;
                 wx[i] = wy[i] = wz[i] = 0.0f;
